@@ -1,0 +1,303 @@
+#include "io/config.h"
+
+#include <filesystem>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+namespace facecap::io {
+
+struct Config::Impl {
+  toml::table root;
+};
+
+namespace {
+
+std::vector<std::string> SplitDots(const std::string& path) {
+  std::vector<std::string> parts;
+  std::stringstream ss(path);
+  std::string part;
+  while (std::getline(ss, part, '.')) {
+    if (!part.empty()) parts.push_back(part);
+  }
+  return parts;
+}
+
+const toml::table* FindTable(const toml::table& root, const std::string& table) {
+  const toml::table* t = &root;
+  for (const auto& part : SplitDots(table)) {
+    t = t->get_as<toml::table>(part);
+    if (!t) return nullptr;
+  }
+  return t;
+}
+
+toml::table* EnsureTable(toml::table& root, const std::string& table) {
+  toml::table* t = &root;
+  for (const auto& part : SplitDots(table)) {
+    toml::table* next = t->get_as<toml::table>(part);
+    if (!next) {
+      t->insert_or_assign(part, toml::table{});
+      next = t->get_as<toml::table>(part);
+    }
+    t = next;
+  }
+  return t;
+}
+
+std::string Where(const std::string& origin, const std::string& table, const std::string& key) {
+  return origin + ": [" + table + "] " + key;
+}
+
+}  // namespace
+
+Config::Config() : impl_(std::make_unique<Impl>()) {}
+Config::~Config() = default;
+Config::Config(const Config& other)
+    : impl_(std::make_unique<Impl>(*other.impl_)), origin_(other.origin_) {}
+Config& Config::operator=(const Config& other) {
+  if (this != &other) {
+    impl_ = std::make_unique<Impl>(*other.impl_);
+    origin_ = other.origin_;
+  }
+  return *this;
+}
+
+Config Config::Load(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) throw FileIOError(path + ": no such job file");
+  Config config;
+  config.origin_ = path;
+  try {
+    config.impl_->root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream os;
+    os << path << ":" << e.source().begin.line << ":" << e.source().begin.column
+       << ": not valid TOML: " << e.description();
+    throw InvalidInputError(os.str());
+  }
+  return config;
+}
+
+Config Config::Parse(const std::string& text, const std::string& origin) {
+  Config config;
+  config.origin_ = origin;
+  try {
+    config.impl_->root = toml::parse(text, origin);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream os;
+    os << origin << ":" << e.source().begin.line << ":" << e.source().begin.column
+       << ": not valid TOML: " << e.description();
+    throw InvalidInputError(os.str());
+  }
+  return config;
+}
+
+bool Config::HasTable(const std::string& table) const {
+  return FindTable(impl_->root, table) != nullptr;
+}
+
+bool Config::Has(const std::string& table, const std::string& key) const {
+  const toml::table* t = FindTable(impl_->root, table);
+  return t && t->contains(key) && !(*t)[key].is_table();
+}
+
+std::vector<std::string> Config::Keys(const std::string& table) const {
+  std::vector<std::string> keys;
+  const toml::table* t = FindTable(impl_->root, table);
+  if (!t) return keys;
+  for (auto&& [k, v] : *t) {
+    if (!v.is_table()) keys.emplace_back(k.str());
+  }
+  return keys;
+}
+
+std::vector<std::string> Config::Tables(const std::string& table) const {
+  std::vector<std::string> names;
+  const toml::table* t = FindTable(impl_->root, table);
+  if (!t) return names;
+  for (auto&& [k, v] : *t) {
+    if (v.is_table()) names.emplace_back(k.str());
+  }
+  return names;
+}
+
+namespace {
+
+const toml::node& Node(const toml::table& root, const std::string& origin,
+                       const std::string& table, const std::string& key) {
+  const toml::table* t = FindTable(root, table);
+  if (!t || !t->contains(key)) throw InvalidInputError(Where(origin, table, key) + " is missing");
+  return *t->get(key);
+}
+
+[[noreturn]] void TypeError(const std::string& origin, const std::string& table,
+                            const std::string& key, const char* expected, const toml::node& n) {
+  std::ostringstream os;
+  os << Where(origin, table, key) << " must be " << expected << ", got " << n.type();
+  throw InvalidInputError(os.str());
+}
+
+double NumberOf(const toml::node& n, const std::string& origin, const std::string& table,
+                const std::string& key) {
+  if (auto v = n.value_exact<double>()) return *v;
+  if (auto v = n.value_exact<int64_t>()) return static_cast<double>(*v);
+  TypeError(origin, table, key, "a number", n);
+}
+
+int64_t IntegerOf(const toml::node& n, const std::string& origin, const std::string& table,
+                  const std::string& key) {
+  if (auto v = n.value_exact<int64_t>()) return *v;
+  TypeError(origin, table, key, "an integer", n);
+}
+
+}  // namespace
+
+void Config::Get(const std::string& table, const std::string& key, bool* value) const {
+  const toml::node& n = Node(impl_->root, origin_, table, key);
+  if (auto v = n.value_exact<bool>()) *value = *v;
+  else TypeError(origin_, table, key, "true or false", n);
+}
+
+void Config::Get(const std::string& table, const std::string& key, int64_t* value) const {
+  *value = IntegerOf(Node(impl_->root, origin_, table, key), origin_, table, key);
+}
+
+void Config::Get(const std::string& table, const std::string& key, int* value) const {
+  const int64_t v = IntegerOf(Node(impl_->root, origin_, table, key), origin_, table, key);
+  if (v < INT32_MIN || v > INT32_MAX) {
+    throw InvalidInputError(Where(origin_, table, key) + " is out of the 32-bit integer range");
+  }
+  *value = static_cast<int>(v);
+}
+
+void Config::Get(const std::string& table, const std::string& key, double* value) const {
+  *value = NumberOf(Node(impl_->root, origin_, table, key), origin_, table, key);
+}
+
+void Config::Get(const std::string& table, const std::string& key, float* value) const {
+  *value = static_cast<float>(NumberOf(Node(impl_->root, origin_, table, key), origin_, table, key));
+}
+
+void Config::Get(const std::string& table, const std::string& key, std::string* value) const {
+  const toml::node& n = Node(impl_->root, origin_, table, key);
+  if (auto v = n.value_exact<std::string>()) *value = *v;
+  else TypeError(origin_, table, key, "a string", n);
+}
+
+namespace {
+
+template <typename T, typename Convert>
+void GetArray(const toml::node& n, const std::string& origin, const std::string& table,
+              const std::string& key, std::vector<T>* out, Convert convert) {
+  const toml::array* a = n.as_array();
+  if (!a) TypeError(origin, table, key, "an array", n);
+  out->clear();
+  for (const toml::node& e : *a) out->push_back(convert(e));
+}
+
+}  // namespace
+
+void Config::Get(const std::string& table, const std::string& key, std::vector<int>* value) const {
+  GetArray(Node(impl_->root, origin_, table, key), origin_, table, key, value,
+           [&](const toml::node& e) { return static_cast<int>(IntegerOf(e, origin_, table, key)); });
+}
+
+void Config::Get(const std::string& table, const std::string& key,
+                 std::vector<float>* value) const {
+  GetArray(Node(impl_->root, origin_, table, key), origin_, table, key, value,
+           [&](const toml::node& e) { return static_cast<float>(NumberOf(e, origin_, table, key)); });
+}
+
+void Config::Get(const std::string& table, const std::string& key,
+                 std::vector<std::string>* value) const {
+  GetArray(Node(impl_->root, origin_, table, key), origin_, table, key, value,
+           [&](const toml::node& e) {
+             if (auto v = e.value_exact<std::string>()) return *v;
+             TypeError(origin_, table, key, "an array of strings", e);
+           });
+}
+
+void Config::Set(const std::string& table, const std::string& key, bool value) {
+  EnsureTable(impl_->root, table)->insert_or_assign(key, value);
+}
+void Config::Set(const std::string& table, const std::string& key, int value) {
+  EnsureTable(impl_->root, table)->insert_or_assign(key, static_cast<int64_t>(value));
+}
+void Config::Set(const std::string& table, const std::string& key, int64_t value) {
+  EnsureTable(impl_->root, table)->insert_or_assign(key, value);
+}
+void Config::Set(const std::string& table, const std::string& key, float value) {
+  EnsureTable(impl_->root, table)->insert_or_assign(key, static_cast<double>(value));
+}
+void Config::Set(const std::string& table, const std::string& key, double value) {
+  EnsureTable(impl_->root, table)->insert_or_assign(key, value);
+}
+void Config::Set(const std::string& table, const std::string& key, const std::string& value) {
+  EnsureTable(impl_->root, table)->insert_or_assign(key, value);
+}
+void Config::Set(const std::string& table, const std::string& key, const std::vector<int>& value) {
+  toml::array a;
+  for (int v : value) a.push_back(static_cast<int64_t>(v));
+  EnsureTable(impl_->root, table)->insert_or_assign(key, std::move(a));
+}
+void Config::Set(const std::string& table, const std::string& key,
+                 const std::vector<float>& value) {
+  toml::array a;
+  for (float v : value) a.push_back(static_cast<double>(v));
+  EnsureTable(impl_->root, table)->insert_or_assign(key, std::move(a));
+}
+void Config::Set(const std::string& table, const std::string& key,
+                 const std::vector<std::string>& value) {
+  toml::array a;
+  for (const auto& v : value) a.push_back(v);
+  EnsureTable(impl_->root, table)->insert_or_assign(key, std::move(a));
+}
+
+void Config::SetFromText(const std::string& table, const std::string& key,
+                         const std::string& text) {
+  toml::table* t = EnsureTable(impl_->root, table);
+  try {
+    toml::table parsed = toml::parse("value = " + text);
+    t->insert_or_assign(key, *parsed.get("value"));
+  } catch (const toml::parse_error&) {
+    t->insert_or_assign(key, text);
+  }
+}
+
+void Config::SetAssignment(const std::string& assignment) {
+  const size_t eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    throw InvalidInputError("--set " + assignment + ": expected table.key=value");
+  }
+  const std::string path = assignment.substr(0, eq);
+  const size_t dot = path.rfind('.');
+  if (dot == std::string::npos) {
+    throw InvalidInputError("--set " + assignment + ": expected table.key=value");
+  }
+  SetFromText(path.substr(0, dot), path.substr(dot + 1), assignment.substr(eq + 1));
+}
+
+void Config::CopyTable(const Config& other, const std::string& table) {
+  const toml::table* src = FindTable(other.impl_->root, table);
+  if (!src) return;
+  std::vector<std::string> parts = SplitDots(table);
+  if (parts.empty()) {
+    impl_->root = *src;
+    return;
+  }
+  const std::string leaf = parts.back();
+  parts.pop_back();
+  std::string parent;
+  for (const auto& p : parts) parent += (parent.empty() ? "" : ".") + p;
+  EnsureTable(impl_->root, parent)->insert_or_assign(leaf, *src);
+}
+
+std::string Config::ToToml(const std::string& table) const {
+  const toml::table* t = FindTable(impl_->root, table);
+  if (!t) return "";
+  std::ostringstream os;
+  os << toml::toml_formatter{*t};
+  return os.str();
+}
+
+}  // namespace facecap::io

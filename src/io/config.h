@@ -1,0 +1,129 @@
+// Job files (TOML). A job file has one table per stage ([rig.demo], [synth.samples], ...);
+// each stage's options struct maps one to one onto its table through the struct's
+// Visit(visitor) method:
+//
+//   struct SynthSamplesOptions {
+//     int count = 4000;  // number of samples
+//     template <class V> void Visit(V&& v) { v("count", count, "number of samples"); }
+//     bool Check(std::string* why) const;
+//   };
+//
+// LoadOptions() fills a struct from a table (an unknown key is an error that lists the valid
+// keys; a value of the wrong type names the key and the type expected); StoreOptions() writes
+// the resolved values back, so the resolved configuration can be stored in every output.
+// toml++ stays inside config.cpp.
+#ifndef FACECAP_IO_CONFIG_H_
+#define FACECAP_IO_CONFIG_H_
+
+#include <algorithm>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "util/errors.h"
+
+namespace facecap::io {
+
+class Config {
+ public:
+  Config();
+  ~Config();
+  Config(const Config& other);
+  Config& operator=(const Config& other);
+
+  // Reads a TOML file; FileIOError when missing, InvalidInputError (with line and column)
+  // when it does not parse.
+  static Config Load(const std::string& path);
+  static Config Parse(const std::string& text, const std::string& origin = "<string>");
+
+  const std::string& origin() const { return origin_; }
+  // Tables are dotted paths: "synth.samples".
+  bool HasTable(const std::string& table) const;
+  bool Has(const std::string& table, const std::string& key) const;
+  // The keys of a table that hold values (not sub-tables), in file order.
+  std::vector<std::string> Keys(const std::string& table) const;
+  // Sub-table names of a table ("" for the root).
+  std::vector<std::string> Tables(const std::string& table) const;
+
+  // Typed getters: InvalidInputError naming origin, table, key and type on mismatch.
+  void Get(const std::string& table, const std::string& key, bool* value) const;
+  void Get(const std::string& table, const std::string& key, int* value) const;
+  void Get(const std::string& table, const std::string& key, int64_t* value) const;
+  void Get(const std::string& table, const std::string& key, float* value) const;
+  void Get(const std::string& table, const std::string& key, double* value) const;
+  void Get(const std::string& table, const std::string& key, std::string* value) const;
+  void Get(const std::string& table, const std::string& key, std::vector<int>* value) const;
+  void Get(const std::string& table, const std::string& key, std::vector<float>* value) const;
+  void Get(const std::string& table, const std::string& key,
+           std::vector<std::string>* value) const;
+
+  void Set(const std::string& table, const std::string& key, bool value);
+  void Set(const std::string& table, const std::string& key, int value);
+  void Set(const std::string& table, const std::string& key, int64_t value);
+  void Set(const std::string& table, const std::string& key, float value);
+  void Set(const std::string& table, const std::string& key, double value);
+  void Set(const std::string& table, const std::string& key, const std::string& value);
+  void Set(const std::string& table, const std::string& key, const std::vector<int>& value);
+  void Set(const std::string& table, const std::string& key, const std::vector<float>& value);
+  void Set(const std::string& table, const std::string& key,
+           const std::vector<std::string>& value);
+  // Sets a value from its command-line text: a TOML literal (42, 0.5, true, [1, 2],
+  // "text") or, failing that, a bare string.
+  void SetFromText(const std::string& table, const std::string& key, const std::string& text);
+  // Applies "table.key=value" (the --set flag).
+  void SetAssignment(const std::string& assignment);
+
+  // Copies `table` (and its sub-tables) of `other` into this config, replacing it.
+  void CopyTable(const Config& other, const std::string& table);
+  // The TOML text of the whole config, or of one table.
+  std::string ToToml(const std::string& table = "") const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::string origin_ = "<defaults>";
+};
+
+// Fills `options` from `table` of `config`. Unknown keys: InvalidInputError listing the valid
+// ones. Absent keys keep the struct's defaults.
+template <typename Options>
+void LoadOptions(const Config& config, const std::string& table, Options* options) {
+  std::vector<std::string> valid;
+  options->Visit([&](const char* key, auto& field, const char* /*help*/) {
+    valid.emplace_back(key);
+    if (config.Has(table, key)) config.Get(table, key, &field);
+  });
+  for (const std::string& key : config.Keys(table)) {
+    if (std::find(valid.begin(), valid.end(), key) == valid.end()) {
+      std::string list;
+      for (const auto& v : valid) list += (list.empty() ? "" : ", ") + v;
+      throw InvalidInputError(config.origin() + ": unknown key '" + key + "' in [" + table +
+                              "]; valid keys: " + list);
+    }
+  }
+}
+
+// Writes every field of `options` into `table` of `config`.
+template <typename Options>
+void StoreOptions(const Options& options, const std::string& table, Config* config) {
+  const_cast<Options&>(options).Visit([&](const char* key, auto& field, const char*) {
+    config->Set(table, key, field);
+  });
+}
+
+// LoadOptions then Check(): InvalidInputError with the table and the reason.
+template <typename Options>
+Options ResolveOptions(const Config& config, const std::string& table) {
+  Options options;
+  LoadOptions(config, table, &options);
+  std::string why;
+  if (!options.Check(&why)) {
+    throw InvalidInputError(config.origin() + ": [" + table + "] " + why);
+  }
+  return options;
+}
+
+}  // namespace facecap::io
+
+#endif  // FACECAP_IO_CONFIG_H_

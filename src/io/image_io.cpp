@@ -1,0 +1,86 @@
+#include "io/image_io.h"
+
+#include <filesystem>
+
+#include <OpenImageIO/imageio.h>
+
+#include "util/errors.h"
+
+namespace facecap::io {
+namespace {
+
+template <typename T>
+void WriteAny(const std::string& path, const Image<T>& image, OIIO::TypeDesc type) {
+  if (image.empty()) throw OutputError(path + ": empty image");
+  const std::filesystem::path final_path(path);
+  const std::string ext = final_path.extension().string();
+  // Keep the extension on the temporary name: OIIO picks the format from it.
+  const std::string tmp = (final_path.parent_path() / ("." + final_path.stem().string() +
+                                                        ".partial" + ext)).string();
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) throw OutputError(path + ": no image writer for extension '" + ext + "'");
+  OIIO::ImageSpec spec(image.width, image.height, image.channels, type);
+  if (!out->open(tmp, spec) || !out->write_image(type, image.data.data()) || !out->close()) {
+    throw OutputError(path + ": cannot write image: " + out->geterror());
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw OutputError(path + ": cannot rename from " + tmp + ": " + ec.message());
+}
+
+}  // namespace
+
+void WriteImage(const std::string& path, const Image8& image) {
+  WriteAny(path, image, OIIO::TypeDesc::UINT8);
+}
+
+void WriteImage(const std::string& path, const ImageF& image) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext == ".exr" || ext == ".EXR" || ext == ".tif" || ext == ".tiff") {
+    WriteAny(path, image, OIIO::TypeDesc::FLOAT);
+    return;
+  }
+  Image8 q(image.width, image.height, image.channels);
+  for (size_t i = 0; i < image.data.size(); ++i) {
+    const float v = std::min(1.f, std::max(0.f, image.data[i]));
+    q.data[i] = static_cast<uint8_t>(v * 255.f + 0.5f);
+  }
+  WriteAny(path, q, OIIO::TypeDesc::UINT8);
+}
+
+Image8 ReadImage8(const std::string& path, int channels) {
+  if (channels != 1 && channels != 3) throw InvalidInputError("ReadImage8: channels must be 1 or 3");
+  if (!std::filesystem::is_regular_file(path)) throw FileIOError(path + ": no such image file");
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) throw FileIOError(path + ": cannot read as an image: " + OIIO::geterror());
+  const OIIO::ImageSpec& spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) {
+    throw FileIOError(path + ": image has no pixels");
+  }
+  if (static_cast<int64_t>(spec.width) * spec.height > (int64_t{1} << 28)) {
+    throw FileIOError(path + ": image of " + std::to_string(spec.width) + "x" +
+                      std::to_string(spec.height) + " pixels is too large");
+  }
+  Image8 raw(spec.width, spec.height, spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, raw.data.data())) {
+    throw FileIOError(path + ": cannot decode image: " + in->geterror());
+  }
+  in->close();
+  Image8 out(spec.width, spec.height, channels);
+  for (int y = 0; y < spec.height; ++y) {
+    for (int x = 0; x < spec.width; ++x) {
+      const uint8_t* p = raw.pixel(x, y);
+      uint8_t* q = out.pixel(x, y);
+      if (channels == 1) {
+        q[0] = spec.nchannels >= 3
+                   ? static_cast<uint8_t>((77 * p[0] + 150 * p[1] + 29 * p[2]) >> 8)
+                   : p[0];
+      } else {
+        for (int c = 0; c < 3; ++c) q[c] = p[spec.nchannels >= 3 ? c : 0];
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace facecap::io

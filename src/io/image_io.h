@@ -1,0 +1,22 @@
+// Image files through OpenImageIO: PNG, JPEG, EXR, TIFF, ... chosen by extension. Writes are
+// atomic (a temporary name, then rename). Only io/ includes OIIO headers.
+#ifndef FACECAP_IO_IMAGE_IO_H_
+#define FACECAP_IO_IMAGE_IO_H_
+
+#include <string>
+
+#include "util/image.h"
+
+namespace facecap::io {
+
+// Writes 8-bit images (1, 3 or 4 channels).
+void WriteImage(const std::string& path, const Image8& image);
+// Writes float images; EXR keeps the floats, 8-bit formats clamp [0, 1] and quantize.
+void WriteImage(const std::string& path, const ImageF& image);
+// Reads any supported image as 8-bit with `channels` channels (1 or 3): grayscale is
+// replicated, alpha dropped, 16-bit and float data converted. FileIOError names the file.
+Image8 ReadImage8(const std::string& path, int channels = 3);
+
+}  // namespace facecap::io
+
+#endif  // FACECAP_IO_IMAGE_IO_H_

@@ -1,0 +1,57 @@
+#include "stages/app.h"
+
+#include <iostream>
+
+#include "stages/cli.h"
+#include "stages/registry.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/signals.h"
+
+namespace facecap::stages {
+
+int RunApp(int argc, char** argv) {
+  dist::Comm::Init(&argc, &argv);
+  AppState state;
+  state.comm = dist::Comm::World();
+  state.command_line = JoinCommandLine(argc, argv);
+  ConfigureLogging(state.comm.rank(), state.comm.size());
+  InstallStopHandlers();
+
+  CLI::App app{
+      "facecap: facial capture on a cluster. Tracked, personalized 3D face rigs from video, and\n"
+      "personalized blendshapes from one neutral scan. Every stage reads and writes HDF5, runs\n"
+      "alone or under mpirun/srun, and resumes when rerun. Exit codes: 0 ok, 1 internal error,\n"
+      "2 usage or configuration error, 3 bad input file, 4 output not writable, 5 ranks\n"
+      "disagree or MPI failed, 75 stopped by SIGTERM/SIGUSR1 after a checkpoint (rerun to "
+      "continue)."};
+  app.require_subcommand(1);
+  app.fallthrough();
+  RegisterVersion(&app, &state);
+  //RegisterRig
+  //RegisterRender
+
+  int code = kExitOk;
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    if (state.comm.IsMainRank()) app.exit(e);
+    code = kExitOk;
+  } catch (const CLI::CallForAllHelp& e) {
+    if (state.comm.IsMainRank()) app.exit(e);
+    code = kExitOk;
+  } catch (const CLI::ParseError& e) {
+    if (state.comm.IsMainRank()) app.exit(e);
+    code = e.get_exit_code() == 0 ? kExitOk : kExitUsage;
+  } catch (const Error& e) {
+    FC_ERROR("{}", e.what());
+    code = e.code();
+  } catch (const std::exception& e) {
+    FC_ERROR("internal error: {}", e.what());
+    code = kExitFailure;
+  }
+  dist::Comm::Finalize();
+  return code;
+}
+
+}  // namespace facecap::stages

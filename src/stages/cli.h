@@ -1,0 +1,131 @@
+// Command-line plumbing shared by the subcommands (CLI11 stays in stages/ and app/).
+//
+// Every stage option struct (see io/config.h) becomes flags automatically: a field `count`
+// of table [synth.samples] is `--count`, with its help text and default shown by --help.
+// Precedence: struct defaults < job file (--job) < --set table.key=value < the flags.
+#ifndef FACECAP_STAGES_CLI_H_
+#define FACECAP_STAGES_CLI_H_
+
+#include <map>
+#include <sstream>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "io/config.h"
+#include "stages/stage.h"
+
+namespace facecap::stages {
+
+// Flags common to all stages plus the per-option overrides collected from the command line.
+struct StageFlags {
+  std::string job;                         // --job FILE
+  std::vector<std::string> sets;           // --set table.key=value
+  std::map<std::string, std::string> overrides;  // table key -> text given on the command line
+  std::string table;
+};
+
+template <typename T>
+std::string DefaultText(const T& value) {
+  std::ostringstream os;
+  if constexpr (std::is_same_v<T, bool>) {
+    os << (value ? "true" : "false");
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    os << '"' << value << '"';
+  } else if constexpr (std::is_arithmetic_v<T>) {
+    os << value;
+  } else {
+    os << "[";
+    for (size_t i = 0; i < value.size(); ++i) os << (i ? ", " : "") << DefaultText(value[i]);
+    os << "]";
+  }
+  return os.str();
+}
+
+inline std::string FlagName(const std::string& key) {
+  std::string f = "--" + key;
+  for (char& c : f) if (c == '_') c = '-';
+  return f;
+}
+
+inline std::string TomlQuote(const std::string& text) {
+  std::string q = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') q += '\\';
+    q += c;
+  }
+  return q + "\"";
+}
+
+// The TOML literal for a flag's text: strings are quoted, lists may be given as "1,2,3".
+template <typename Field>
+std::string FlagTextToToml(const std::string& text) {
+  if constexpr (std::is_same_v<Field, std::string>) {
+    return TomlQuote(text);
+  } else if constexpr (std::is_arithmetic_v<Field>) {
+    return text;
+  } else {
+    if (!text.empty() && text.front() == '[') return text;
+    std::string out = "[";
+    std::stringstream ss(text);
+    std::string item;
+    bool first = true;
+    while (std::getline(ss, item, ',')) {
+      if constexpr (std::is_same_v<typename Field::value_type, std::string>) item = TomlQuote(item);
+      out += (first ? "" : ", ") + item;
+      first = false;
+    }
+    return out + "]";
+  }
+}
+
+// Adds --job, --set and one flag per field of Options to `sub`.
+template <typename Options>
+void AddStageFlags(CLI::App* sub, const std::string& table, StageFlags* flags) {
+  flags->table = table;
+  sub->add_option("--job", flags->job,
+                  "TOML job file; its [" + table + "] table sets these options")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--set", flags->sets,
+                  "override any job-file value: --set " + table + ".key=value (repeatable)");
+  Options defaults;
+  defaults.Visit([&](const char* key, auto& field, const char* help) {
+    const std::string k = key;
+    using Field = std::decay_t<decltype(field)>;
+    auto* option = sub->add_option_function<std::string>(
+        FlagName(k),
+        [flags, k](const std::string& text) { flags->overrides[k] = FlagTextToToml<Field>(text); },
+        std::string(help) + " (default: " + DefaultText(field) + ")");
+    if constexpr (std::is_same_v<Field, bool>) {
+      option->type_name("BOOL");
+    } else if constexpr (std::is_arithmetic_v<Field>) {
+      option->type_name(std::is_integral_v<Field> ? "INT" : "FLOAT");
+    } else if constexpr (std::is_same_v<Field, std::string>) {
+      option->type_name("TEXT");
+    } else {
+      option->type_name("LIST");
+    }
+  });
+}
+
+// The job configuration with --set and flags applied (flags win).
+io::Config BuildConfig(const StageFlags& flags);
+
+// Resolves Options for the stage: defaults, job file, --set, flags; then Check().
+// `resolved` receives the options as stored in the output's provenance.
+template <typename Options>
+Options ResolveStageOptions(const StageFlags& flags, StageContext* ctx, io::Config* resolved) {
+  ctx->config = BuildConfig(flags);
+  Options options = io::ResolveOptions<Options>(ctx->config, flags.table);
+  io::StoreOptions(options, flags.table, resolved);
+  return options;
+}
+
+// Quotes argv into one command line (for provenance).
+std::string JoinCommandLine(int argc, char** argv);
+
+}  // namespace facecap::stages
+
+#endif  // FACECAP_STAGES_CLI_H_

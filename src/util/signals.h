@@ -1,0 +1,21 @@
+// SIGTERM and SIGUSR1 set a process-wide stop flag. Long stages poll StopRequested() between
+// work items, write their checkpoint, and throw InterruptedError (exit code 75) so Slurm can
+// requeue the job; rerunning the same command continues.
+#ifndef FACECAP_UTIL_SIGNALS_H_
+#define FACECAP_UTIL_SIGNALS_H_
+
+namespace facecap {
+
+// Installs the handlers for SIGTERM and SIGUSR1 (idempotent).
+void InstallStopHandlers();
+// True once SIGTERM or SIGUSR1 arrived (or RequestStop was called).
+bool StopRequested();
+// The signal number that requested the stop, 0 if none.
+int StopSignal();
+// For tests: sets or clears the flag as if a signal had arrived.
+void RequestStop(int signal_number);
+void ClearStopRequest();
+
+}  // namespace facecap
+
+#endif  // FACECAP_UTIL_SIGNALS_H_
