@@ -133,7 +133,7 @@ void Comm::Broadcast(void* data, int64_t bytes, int root) const {
 void Comm::Broadcast(std::string* value, int root) const {
   if (handle_ < 0) return;
   std::vector<char> bytes(value->begin(), value->end());
-  Broadcast(&bytes);
+  Broadcast(&bytes, root);
   value->assign(bytes.begin(), bytes.end());
 }
 

@@ -336,6 +336,7 @@ std::vector<std::string> H5File::ReadStrings(const std::string& raw, int64_t siz
   if (H5Tis_variable_str(ftype.get()) > 0) {
     Handle type(H5Tcopy(H5T_C_S1));
     H5Tset_size(type.get(), H5T_VARIABLE);
+    H5Tset_cset(type.get(), H5Tget_cset(ftype.get()));
     std::vector<char*> ptrs(shape[0], nullptr);
     if (H5Dread(ds.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, ptrs.data()) < 0) {
       FailRead("cannot read strings " + name);
@@ -348,6 +349,7 @@ std::vector<std::string> H5File::ReadStrings(const std::string& raw, int64_t siz
     std::vector<char> buf(len * shape[0] + 1, '\0');
     Handle type(H5Tcopy(H5T_C_S1));
     H5Tset_size(type.get(), len);
+    H5Tset_cset(type.get(), H5Tget_cset(ftype.get()));
     if (H5Dread(ds.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0) {
       FailRead("cannot read strings " + name);
     }
@@ -535,6 +537,7 @@ std::string H5File::GetStringAttribute(const std::string& object, const std::str
     char* p = nullptr;
     Handle mtype(H5Tcopy(H5T_C_S1));
     H5Tset_size(mtype.get(), H5T_VARIABLE);
+    H5Tset_cset(mtype.get(), H5Tget_cset(ftype.get()));
     ok = H5Aread(attr.get(), mtype.get(), &p) >= 0;
     if (ok && p) out = p;
     if (p) H5free_memory(p);
