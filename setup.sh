@@ -1,7 +1,18 @@
 #!/usr/bin/env bash
-# Installs every dependency of facecap from Debian 12 packages. Idempotent; runs as root
-# or through sudo. Usage: ./setup.sh
+# Installs every dependency of facecap from Debian 12 packages, builds, and runs what is asked.
+# Idempotent; runs as root or through sudo (it calls sudo for apt-get when not root).
+#
+#   ./setup.sh            install the Debian packages and build (build/facecap)
+#   ./setup.sh demo       ... then run the demo pipeline and print its metrics
+#   ./setup.sh test       ... then run the whole test suite (ctest, without the "long" label)
+#   ./setup.sh test-long  ... then run the whole suite including long tests
 set -euo pipefail
+cd "$(dirname "$0")"
+MODE="${1:-build}"
+case "$MODE" in
+  build|demo|test|test-long) ;;
+  *) echo "usage: ./setup.sh [build|demo|test|test-long]" >&2; exit 2 ;;
+esac
 
 PACKAGES=(
   # toolchain
@@ -40,3 +51,27 @@ if [ ${#missing[@]} -gt 0 ]; then
 else
   echo "setup.sh: all ${#PACKAGES[@]} Debian packages present"
 fi
+
+# ---- build --------------------------------------------------------------------------------
+JOBS="${FACECAP_BUILD_JOBS:-$(nproc)}"
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+cmake --build build -j "$JOBS"
+
+# OpenMPI refuses to start as root without these; containers and CI often run as root.
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+export OMPI_MCA_btl_vader_single_copy_mechanism=none
+
+case "$MODE" in
+  demo)
+    mkdir -p out/demo
+    ./build/facecap rig demo --out out/demo/rig.h5
+    ./build/facecap render --rig out/demo/rig.h5 --sheet --out out/demo/sheet.png
+    echo "setup.sh: demo outputs in out/demo/ (rig.h5, sheet.png)"
+    ;;
+  test)
+    ctest --test-dir build --output-on-failure -j 2 -LE long
+    ;;
+  test-long)
+    ctest --test-dir build --output-on-failure -j 2
+    ;;
+esac

@@ -11,8 +11,8 @@ namespace facecap::render {
 Eigen::Matrix<uint8_t, 3, 1> ColorToRgb8(const Eigen::Vector3f& color) {
   Eigen::Matrix<uint8_t, 3, 1> rgb;
   for (int c = 0; c < 3; ++c) {
-    const float value = std::clamp(color[c], 0.f, 1.f) * 255.f + 0.5f;
-    rgb[c] = static_cast<uint8_t>(value);  // NaN -> 0 through the clamp's comparisons
+    const float clamped = color[c] > 0.f ? std::min(color[c], 1.f) : 0.f;  // NaN -> 0
+    rgb[c] = static_cast<uint8_t>(clamped * 255.f + 0.5f);
   }
   return rgb;
 }

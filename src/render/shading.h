@@ -11,7 +11,6 @@
 
 #include <Eigen/Core>
 
-#include "render/camera.h"
 #include "render/rasterizer.h"
 #include "rig/rig.h"
 #include "util/image.h"
@@ -104,7 +103,6 @@ Eigen::Vector3f SphericalHarmonicsIrradiance(const Eigen::Matrix<float, 9, 3>& c
 //   vertex_normals    #V by 3 camera-space unit normals (VertexNormals of camera_vertices)
 //   rig               topology and attributes: triangles, uvs / uv_triangles (kTexture),
 //                     triangle_region / regions (kPerRegion)
-//   camera            the camera used by Rasterize
 //   lighting          lights in camera space
 //   options           albedo source, specular, background
 //   albedo_texture    linear RGB texture for kTexture (ignored otherwise; may be null then)
@@ -114,7 +112,7 @@ Eigen::Vector3f SphericalHarmonicsIrradiance(const Eigen::Matrix<float, 9, 3>& c
 // Throws InvalidInputError on bad options or missing attributes for the albedo source.
 void RenderShaded(const GBuffer& gbuffer, const rig::Vertices& camera_vertices,
                   const rig::Vertices& vertex_normals, const rig::Rig& rig,
-                  const Camera& camera, const Lighting& lighting,
+                  const Lighting& lighting,
                   const ShadingOptions& options, const ImageF* albedo_texture,
                   const ImageF* background_image, ImageF* image);
 

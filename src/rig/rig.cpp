@@ -5,6 +5,8 @@
 #include <set>
 #include <sstream>
 
+#include <Eigen/Geometry>
+
 namespace facecap::rig {
 
 int Rig::ShapeIndex(const std::string& name) const {

@@ -28,8 +28,8 @@ int RunApp(int argc, char** argv) {
   app.require_subcommand(1);
   app.fallthrough();
   RegisterVersion(&app, &state);
-  //RegisterRig
-  //RegisterRender
+  RegisterRig(&app, &state);
+  RegisterRender(&app, &state);
 
   int code = kExitOk;
   try {

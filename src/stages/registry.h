@@ -3,17 +3,21 @@
 #ifndef FACECAP_STAGES_REGISTRY_H_
 #define FACECAP_STAGES_REGISTRY_H_
 
+#include <list>
 #include <string>
 
 #include <CLI/CLI.hpp>
 
 #include "dist/comm.h"
+#include "stages/cli.h"
 
 namespace facecap::stages {
 
 struct AppState {
   dist::Comm comm = dist::Comm::Single();
   std::string command_line;
+  std::list<StageFlags> stage_flags;  // one per subcommand; a list keeps pointers stable
+  StageFlags* NewFlags() { return &stage_flags.emplace_back(); }
 };
 
 void RegisterVersion(CLI::App* app, AppState* state);

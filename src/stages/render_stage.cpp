@@ -1,0 +1,278 @@
+// facecap render: a rig at a given pose and weights to PNG/EXR, or a contact sheet of the
+// neutral and expressions (segmentation and shaded side by side).
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "io/image_io.h"
+#include "io/rig_io.h"
+#include "render/contact_sheet.h"
+#include "render/gbuffer_images.h"
+#include "render/rasterizer.h"
+#include "render/shading.h"
+#include "rig/evaluate.h"
+#include "stages/cli.h"
+#include "stages/registry.h"
+#include "util/errors.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+namespace {
+
+constexpr float kDegToRad = static_cast<float>(M_PI / 180.0);
+
+// [render]
+struct RenderStageOptions {
+  std::string rig = "rig.h5";            // rig file
+  std::string out = "render.png";        // image file (.png, .jpg, .exr, .tif)
+  std::string mode = "shaded";           // segmentation, shaded, uv or depth
+  int size = 512;                        // image width and height in pixels
+  float fov_deg = 20.f;                  // vertical field of view
+  float pitch_deg = 0.f;                 // head pitch (positive: face up)
+  float yaw_deg = 0.f;                   // head yaw (positive: towards the head's left)
+  float roll_deg = 0.f;                  // head roll
+  std::vector<std::string> weights;      // shape weights as name=value
+  bool sheet = false;                    // contact sheet of neutral + expressions
+  int threads = 0;                       // OpenMP threads (0: all)
+
+  template <class V>
+  void Visit(V&& v) {
+    v("rig", rig, "rig file (HDF5) from `facecap rig demo` or `facecap rig import`");
+    v("out", out, "output image; the extension picks the format (.png, .jpg, .exr, .tif)");
+    v("mode", mode, "what to draw: segmentation, shaded, uv or depth");
+    v("size", size, "image width and height in pixels");
+    v("fov_deg", fov_deg, "vertical field of view in degrees; the head is framed to fit");
+    v("pitch_deg", pitch_deg, "head pitch in degrees (positive tilts the face up)");
+    v("yaw_deg", yaw_deg, "head yaw in degrees (positive turns the face to the head's left)");
+    v("roll_deg", roll_deg, "head roll in degrees");
+    v("weights", weights, "shape weights as name=value, e.g. jawOpen=0.7,eyeBlinkLeft=1");
+    v("sheet", sheet, "write a contact sheet: the neutral and expressions, segmentation and "
+                      "shaded side by side");
+    v("threads", threads, "OpenMP threads for rendering (0: all available)");
+  }
+  bool Check(std::string* why) const {
+    if (mode != "segmentation" && mode != "shaded" && mode != "uv" && mode != "depth") {
+      *why = "mode must be segmentation, shaded, uv or depth, got '" + mode + "'";
+      return false;
+    }
+    if (size < 16 || size > 8192) { *why = "size must be in [16, 8192]"; return false; }
+    if (!(fov_deg > 1.f && fov_deg < 120.f)) { *why = "fov_deg must be in (1, 120)"; return false; }
+    if (std::abs(pitch_deg) > 90.f || std::abs(yaw_deg) > 180.f || std::abs(roll_deg) > 180.f) {
+      *why = "pose out of range (|pitch| <= 90, |yaw| <= 180, |roll| <= 180 degrees)";
+      return false;
+    }
+    return true;
+  }
+};
+
+// Parses "name=value" items into a weight vector; names must be shapes of the rig.
+Eigen::VectorXf ParseWeights(const rig::Rig& rig, const std::vector<std::string>& items) {
+  Eigen::VectorXf w = Eigen::VectorXf::Zero(rig.NumShapes());
+  for (const std::string& item : items) {
+    const size_t eq = item.find('=');
+    const std::string name = item.substr(0, eq);
+    const int index = rig.ShapeIndex(name);
+    if (index < 0) throw InvalidInputError("[render] weights: the rig has no shape '" + name + "'");
+    float value = 1.f;
+    if (eq != std::string::npos) {
+      try {
+        value = std::stof(item.substr(eq + 1));
+      } catch (const std::exception&) {
+        throw InvalidInputError("[render] weights: '" + item + "' is not name=number");
+      }
+    }
+    if (!(value >= 0.f && value <= 1.f)) {
+      throw InvalidInputError("[render] weights: " + name + " must be in [0, 1]");
+    }
+    w[index] = value;
+  }
+  return w;
+}
+
+// Camera and pose that frame the rig's neutral head in the image.
+struct Framing {
+  render::Camera camera;
+  rig::RigidPose pose;
+};
+
+Framing FrameHead(const rig::Rig& rig, int size, float fov_deg, float pitch, float yaw,
+                  float roll) {
+  Framing f;
+  f.camera = render::Camera::FromFov(size, size, fov_deg);
+  const Eigen::Vector3f lo = rig.neutral.colwise().minCoeff();
+  const Eigen::Vector3f hi = rig.neutral.colwise().maxCoeff();
+  const Eigen::Vector3f centre = 0.5f * (lo + hi);
+  const float extent = std::max(hi.y() - lo.y(), hi.x() - lo.x());
+  const float distance = 0.58f * extent / std::tan(0.5f * fov_deg * kDegToRad) + 0.5f * (hi.z() - lo.z());
+  f.pose.pitch = pitch;
+  f.pose.yaw = yaw;
+  f.pose.roll = roll;
+  f.pose.translation = Eigen::Vector3f(0.f, 0.f, -distance) - f.pose.Rotation() * centre;
+  return f;
+}
+
+// Skin-like albedo per region, chosen by the region's name, for shaded previews.
+std::vector<Eigen::Vector3f> PreviewAlbedo(const rig::Rig& rig) {
+  std::vector<Eigen::Vector3f> albedo;
+  for (const rig::Region& r : rig.regions) {
+    const std::string& n = r.name;
+    auto has = [&](const char* s) { return n.find(s) != std::string::npos; };
+    Eigen::Vector3f a(0.72f, 0.50f, 0.40f);  // skin
+    if (has("lip")) a = {0.62f, 0.25f, 0.25f};
+    if (has("mouth") || has("inner") || has("cavity")) a = {0.25f, 0.06f, 0.07f};
+    if (has("brow")) a = {0.20f, 0.13f, 0.08f};
+    if (has("hair") || has("scalp")) a = {0.10f, 0.07f, 0.05f};
+    if (has("sclera") || (has("eye") && !has("lid") && !has("brow"))) a = {0.85f, 0.83f, 0.80f};
+    if (has("iris") || has("pupil")) a = {0.18f, 0.25f, 0.35f};
+    if (has("teeth")) a = {0.90f, 0.88f, 0.80f};
+    albedo.push_back(a);
+  }
+  return albedo;
+}
+
+class Renderer {
+ public:
+  Renderer(const rig::Rig& rig, int threads) : rig_(rig), evaluator_(rig) {
+    raster_.num_threads = threads;
+    shading_.num_threads = threads;
+    shading_.albedo_source = render::AlbedoSource::kPerRegion;
+    shading_.region_albedo = PreviewAlbedo(rig);
+    shading_.background_color = {0.05f, 0.05f, 0.06f};
+    lighting_.ambient = {0.25f, 0.25f, 0.25f};
+  }
+
+  void Pose(const Framing& f, const Eigen::VectorXf& weights) {
+    camera_ = f.camera;
+    evaluator_.EvaluatePosed(f.pose, weights, &posed_);
+    render::Rasterize(posed_, rig_.triangles, camera_, &gbuffer_, raster_);
+  }
+  Image8 Segmentation() {
+    Image8 image;
+    render::RenderSegmentation(gbuffer_, rig_.triangle_region, rig_.regions,
+                               Eigen::Vector3f::Zero(), &image);
+    return image;
+  }
+  Image8 Shaded() {
+    render::VertexNormals(posed_, rig_.triangles, &normals_);
+    ImageF linear;
+    render::RenderShaded(gbuffer_, posed_, normals_, rig_, lighting_, shading_, nullptr, nullptr,
+                         &linear);
+    Image8 image;
+    render::LinearToImage8(linear, true, &image);
+    return image;
+  }
+  ImageF UV() {
+    ImageF image;
+    render::RenderUVImage(gbuffer_, rig_.uvs, rig_.uv_triangles, &image);
+    return image;
+  }
+  ImageF Depth() {
+    ImageF image;
+    render::RenderDepthImage(gbuffer_, 0.f, &image);
+    return image;
+  }
+
+ private:
+  const rig::Rig& rig_;
+  rig::RigEvaluator evaluator_;
+  render::RasterizeOptions raster_;
+  render::ShadingOptions shading_;
+  render::Lighting lighting_;
+  render::Camera camera_;
+  render::GBuffer gbuffer_;
+  rig::Vertices posed_, normals_;
+};
+
+// The sheet's cells: a caption and weights by shape name (absent shapes are skipped).
+struct SheetCell {
+  std::string caption;
+  std::vector<std::pair<std::string, float>> weights;
+  float yaw_deg = 0.f;
+};
+
+std::vector<SheetCell> SheetCells() {
+  return {
+      {"neutral", {}},
+      {"jawOpen", {{"jawOpen", 1.f}}},
+      {"eyeBlinkLeft+Right", {{"eyeBlinkLeft", 1.f}, {"eyeBlinkRight", 1.f}}},
+      {"mouthSmileLeft+Right", {{"mouthSmileLeft", 1.f}, {"mouthSmileRight", 1.f}}},
+      {"browInnerUp", {{"browInnerUp", 1.f}}},
+      {"browDownLeft+Right", {{"browDownLeft", 1.f}, {"browDownRight", 1.f}}},
+      {"mouthFunnel", {{"mouthFunnel", 1.f}}},
+      {"mouthPucker", {{"mouthPucker", 1.f}}},
+      {"jawLeft", {{"jawLeft", 1.f}}},
+      {"mouthFrownLeft+Right", {{"mouthFrownLeft", 1.f}, {"mouthFrownRight", 1.f}}},
+      {"eyeWideLeft+Right", {{"eyeWideLeft", 1.f}, {"eyeWideRight", 1.f}}},
+      {"cheekPuff", {{"cheekPuff", 1.f}}},
+      {"noseSneerLeft+Right", {{"noseSneerLeft", 1.f}, {"noseSneerRight", 1.f}}},
+      {"jawOpen+mouthClose", {{"jawOpen", 0.6f}, {"mouthClose", 0.6f}}},
+      {"eyeLookOutLeft+InRight", {{"eyeLookOutLeft", 1.f}, {"eyeLookInRight", 1.f}}},
+      {"neutral, yaw 35", {}, 35.f},
+      {"jawOpen+smile, yaw -35", {{"jawOpen", 0.5f}, {"mouthSmileLeft", 1.f}, {"mouthSmileRight", 1.f}}, -35.f},
+      {"tongueOut", {{"jawOpen", 0.5f}, {"tongueOut", 1.f}}},
+  };
+}
+
+void RunRender(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<RenderStageOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  const rig::Rig rig = io::ReadRigFile(o.rig);
+  Renderer renderer(rig, o.threads);
+  if (!o.sheet) {
+    const Eigen::VectorXf w = ParseWeights(rig, o.weights);
+    renderer.Pose(FrameHead(rig, o.size, o.fov_deg, o.pitch_deg * kDegToRad, o.yaw_deg * kDegToRad,
+                            o.roll_deg * kDegToRad),
+                  w);
+    if (o.mode == "segmentation") io::WriteImage(o.out, renderer.Segmentation());
+    if (o.mode == "shaded") io::WriteImage(o.out, renderer.Shaded());
+    if (o.mode == "uv") io::WriteImage(o.out, renderer.UV());
+    if (o.mode == "depth") io::WriteImage(o.out, renderer.Depth());
+    FC_INFO("render: {} {}x{} -> {}", o.mode, o.size, o.size, o.out);
+    return;
+  }
+  const int cell = std::min(o.size, 256);
+  std::vector<Image8> tiles;
+  std::ostringstream captions;
+  int index = 0;
+  for (const SheetCell& c : SheetCells()) {
+    Eigen::VectorXf w = Eigen::VectorXf::Zero(rig.NumShapes());
+    bool complete = true;
+    for (const auto& [name, value] : c.weights) {
+      const int s = rig.ShapeIndex(name);
+      if (s < 0) complete = false; else w[s] = value;
+    }
+    if (!complete) continue;
+    renderer.Pose(FrameHead(rig, cell, o.fov_deg, o.pitch_deg * kDegToRad,
+                            (o.yaw_deg + c.yaw_deg) * kDegToRad, o.roll_deg * kDegToRad),
+                  w);
+    tiles.push_back(renderer.Segmentation());
+    tiles.push_back(renderer.Shaded());
+    captions << "cell " << index++ << " (row " << (index - 1) / 3 << ", pair " << (index - 1) % 3
+             << "): " << c.caption << "\n";
+  }
+  render::ContactSheetOptions sheet_options;
+  sheet_options.columns = 6;
+  sheet_options.border = 2;
+  sheet_options.border_value = {40, 40, 40};
+  const Image8 sheet = render::ContactSheet(tiles, sheet_options);
+  io::WriteImage(o.out, sheet);
+  std::ofstream(o.out + ".txt") << "segmentation | shaded pairs, 3 pairs per row, left to right:\n"
+                                << captions.str();
+  FC_INFO("render --sheet: {} expressions -> {} (captions in {}.txt)", tiles.size() / 2, o.out,
+          o.out);
+}
+
+}  // namespace
+
+void RegisterRender(CLI::App* app, AppState* state) {
+  StageFlags* flags = state->NewFlags();
+  CLI::App* sub = app->add_subcommand(
+      "render", "Render a rig at a pose and shape weights (segmentation, shaded, UV or depth) to "
+                "PNG/EXR, or with --sheet a contact sheet of the neutral and expressions");
+  AddStageFlags<RenderStageOptions>(sub, "render", flags);
+  sub->callback([=] { RunRender(*flags, state); });
+}
+
+}  // namespace facecap::stages

@@ -1,0 +1,171 @@
+// facecap rig demo | import | export | info: make, bring in, write out and describe rigs.
+#include <filesystem>
+#include <iostream>
+
+#include "io/hdf5.h"
+#include "io/mesh_io.h"
+#include "io/rig_io.h"
+#include "rig/arkit.h"
+#include "rig/demo_head.h"
+#include "stages/cli.h"
+#include "stages/registry.h"
+#include "util/errors.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+namespace {
+
+// [rig.demo]: the procedural demo head.
+struct RigDemoOptions {
+  std::string out = "rig.h5";       // output rig file
+  int identity_seed = 0;            // person to make: 0 is the mean face, others sample the modes
+  float identity_scale = 1.f;       // standard deviations of the identity sample
+  int num_identity_modes = 24;      // identity modes stored in the rig (>= 20)
+
+  template <class V>
+  void Visit(V&& v) {
+    v("out", out, "output rig file (HDF5)");
+    v("identity_seed", identity_seed, "person to make: 0 is the mean face, any other seed samples "
+                                      "the identity modes");
+    v("identity_scale", identity_scale, "size of the identity sample in standard deviations");
+    v("num_identity_modes", num_identity_modes, "identity modes stored in the rig");
+  }
+  bool Check(std::string* why) const {
+    if (out.empty()) { *why = "out must name a file"; return false; }
+    if (identity_seed < 0) { *why = "identity_seed must be >= 0"; return false; }
+    if (!(identity_scale >= 0.f && identity_scale <= 3.f)) {
+      *why = "identity_scale must be in [0, 3], got " + std::to_string(identity_scale);
+      return false;
+    }
+    if (num_identity_modes < 0 || num_identity_modes > 64) {
+      *why = "num_identity_modes must be in [0, 64]";
+      return false;
+    }
+    return true;
+  }
+};
+
+// [rig.import]: a rig from an OBJ folder or a glTF file.
+struct RigImportOptions {
+  std::string obj_dir;   // folder with neutral.obj and one OBJ per shape
+  std::string gltf;      // glTF/GLB file with morph targets
+  std::string out = "rig.h5";
+  template <class V>
+  void Visit(V&& v) {
+    v("obj_dir", obj_dir, "folder with neutral.obj and one <shape>.obj per shape");
+    v("gltf", gltf, "glTF or GLB file with morph targets");
+    v("out", out, "output rig file (HDF5)");
+  }
+  bool Check(std::string* why) const {
+    if (obj_dir.empty() == gltf.empty()) {
+      *why = "give exactly one of obj_dir and gltf";
+      return false;
+    }
+    return !out.empty() || (*why = "out must name a file", false);
+  }
+};
+
+// [rig.export]: a rig to an OBJ folder and/or a glTF file.
+struct RigExportOptions {
+  std::string rig = "rig.h5";
+  std::string obj_dir;
+  std::string gltf;
+  template <class V>
+  void Visit(V&& v) {
+    v("rig", rig, "rig file (HDF5)");
+    v("obj_dir", obj_dir, "write neutral.obj and one OBJ per shape into this folder");
+    v("gltf", gltf, "write a glTF file with one morph target per shape");
+  }
+  bool Check(std::string* why) const {
+    if (obj_dir.empty() && gltf.empty()) {
+      *why = "give obj_dir and/or gltf";
+      return false;
+    }
+    return true;
+  }
+};
+
+void WriteRigFile(const rig::Rig& rig, const std::string& path, const io::Provenance& p) {
+  io::H5File file = io::H5File::CreateAtomic(path);
+  file.WriteProvenance(p);
+  io::WriteRig(rig, &file);
+  file.Commit();
+}
+
+void RunRigDemo(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<RigDemoOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;  // a few milliseconds of work: rank 0 alone
+  rig::DemoHeadOptions head;
+  head.num_identity_modes = o.num_identity_modes;
+  std::string why;
+  if (!head.Check(&why)) throw InvalidInputError("[rig.demo] " + why);
+  rig::Rig rig = rig::MakeDemoHead(head);
+  if (o.identity_seed != 0) rig = rig::WithIdentity(rig, o.identity_seed, o.identity_scale);
+  WriteRigFile(rig, o.out, MakeProvenance(ctx, "rig demo", resolved));
+  FC_INFO("rig demo: {} vertices, {} triangles, {} shapes, {} regions, {} identity modes -> {}",
+          rig.NumVertices(), rig.triangles.rows(), rig.NumShapes(), rig.regions.size(),
+          rig.identity_modes.size(), o.out);
+}
+
+void RunRigImport(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<RigImportOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  rig::Rig rig = o.obj_dir.empty() ? io::ImportRigFromGltf(o.gltf)
+                                   : io::ImportRigFromObjFolder(o.obj_dir);
+  std::string why;
+  if (!rig.Check(&why)) {
+    throw FileIOError((o.obj_dir.empty() ? o.gltf : o.obj_dir) + ": imported rig is invalid: " + why);
+  }
+  WriteRigFile(rig, o.out, MakeProvenance(ctx, "rig import", resolved));
+  FC_INFO("rig import: {} vertices, {} shapes -> {}", rig.NumVertices(), rig.NumShapes(), o.out);
+}
+
+void RunRigExport(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<RigExportOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  const rig::Rig rig = io::ReadRigFile(o.rig);
+  if (!o.obj_dir.empty()) {
+    std::filesystem::create_directories(o.obj_dir);
+    io::ExportRigToObjFolder(rig, o.obj_dir);
+    FC_INFO("rig export: {} OBJ files in {}", rig.NumShapes() + 1, o.obj_dir);
+  }
+  if (!o.gltf.empty()) {
+    io::ExportRigToGltf(rig, o.gltf);
+    FC_INFO("rig export: glTF with {} morph targets -> {}", rig.NumShapes(), o.gltf);
+  }
+}
+
+}  // namespace
+
+void RegisterRig(CLI::App* app, AppState* state) {
+  CLI::App* rig = app->add_subcommand("rig", "Make, import, export and describe face rigs");
+  rig->require_subcommand(1);
+
+  StageFlags* demo_flags = state->NewFlags();
+  CLI::App* demo = rig->add_subcommand(
+      "demo", "Generate the procedural demo head: a closed mesh with eyes, eyelids, lips and a "
+              "mouth opening, 12+ segmentation regions, the 68 iBUG landmarks, the 52 ARKit "
+              "shapes (jaw shapes through jaw skinning) and identity modes");
+  AddStageFlags<RigDemoOptions>(demo, "rig.demo", demo_flags);
+  demo->callback([=] { RunRigDemo(*demo_flags, state); });
+
+  StageFlags* import_flags = state->NewFlags();
+  CLI::App* import = rig->add_subcommand(
+      "import", "Import a rig from an OBJ folder (neutral.obj + <shape>.obj) or a glTF file "
+                "with morph targets");
+  AddStageFlags<RigImportOptions>(import, "rig.import", import_flags);
+  import->callback([=] { RunRigImport(*import_flags, state); });
+
+  StageFlags* export_flags = state->NewFlags();
+  CLI::App* exp = rig->add_subcommand("export", "Export a rig to OBJ files and/or glTF");
+  AddStageFlags<RigExportOptions>(exp, "rig.export", export_flags);
+  exp->callback([=] { RunRigExport(*export_flags, state); });
+}
+
+}  // namespace facecap::stages
