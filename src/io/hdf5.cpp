@@ -166,8 +166,10 @@ H5File H5File::CreateAtomic(const std::string& path) {
   SilenceHdf5();
   const std::string partial = PartialPath(path);
   const auto parent = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
   if (!parent.empty() && !std::filesystem::is_directory(parent)) {
-    throw OutputError(path + ": output directory " + parent.string() + " does not exist");
+    throw OutputError(path + ": cannot create the output directory " + parent.string());
   }
   hid_t id = H5Fcreate(partial.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (id < 0) throw OutputError(partial + ": cannot create HDF5 file");
@@ -591,6 +593,7 @@ void H5File::WriteProvenance(const Provenance& p) {
   SetAttribute("/", "created_utc", UtcNow());
   SetAttribute("/", "mpi_ranks", static_cast<int64_t>(p.mpi_ranks));
   SetAttribute("/", "stage", p.stage);
+  SetAttribute("/", "config_hash", ConfigHash(p.config));
 }
 
 DoneMask::DoneMask(H5File* file, int64_t num_frames, const std::string& name)

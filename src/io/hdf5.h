@@ -154,7 +154,8 @@ class H5File {
                                                const std::string& name) const;
 
   // Writes the root provenance attributes: facecap_version, git_commit, command_line, config,
-  // created_utc, mpi_ranks, stage.
+  // created_utc, mpi_ranks, stage, and config_hash (ConfigHash of config, which `facecap run`
+  // compares to decide whether an output is up to date).
   void WriteProvenance(const Provenance& provenance);
 
   // Shape check with the file's error message; returns the actual shape.

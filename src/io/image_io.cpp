@@ -17,13 +17,14 @@ void WriteAny(const std::string& path, const Image<T>& image, OIIO::TypeDesc typ
   // Keep the extension on the temporary name: OIIO picks the format from it.
   const std::string tmp = (final_path.parent_path() / ("." + final_path.stem().string() +
                                                         ".partial" + ext)).string();
+  std::error_code ec;
+  if (!final_path.parent_path().empty()) std::filesystem::create_directories(final_path.parent_path(), ec);
   auto out = OIIO::ImageOutput::create(path);
   if (!out) throw OutputError(path + ": no image writer for extension '" + ext + "'");
   OIIO::ImageSpec spec(image.width, image.height, image.channels, type);
   if (!out->open(tmp, spec) || !out->write_image(type, image.data.data()) || !out->close()) {
     throw OutputError(path + ": cannot write image: " + out->geterror());
   }
-  std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec) throw OutputError(path + ": cannot rename from " + tmp + ": " + ec.message());
 }

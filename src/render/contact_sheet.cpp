@@ -18,10 +18,6 @@ bool ContactSheetOptions::Check(std::string* why) const {
     if (why) *why = "border must be >= 0";
     return false;
   }
-  if (border_value.empty()) {
-    if (why) *why = "border_value needs at least one value";
-    return false;
-  }
   return true;
 }
 

@@ -2,6 +2,7 @@
 #ifndef FACECAP_RENDER_CONTACT_SHEET_H_
 #define FACECAP_RENDER_CONTACT_SHEET_H_
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -15,8 +16,8 @@ struct ContactSheetOptions {
   int columns = 0;
   // Border width in pixels around and between tiles; 0 packs the tiles edge to edge.
   int border = 1;
-  // Border value per channel (channels beyond the list repeat its last value).
-  std::vector<uint8_t> border_value{255, 255, 255};
+  // Border value per channel (white); channels beyond the fourth use the fourth value.
+  std::array<uint8_t, 4> border_value{255, 255, 255, 255};
   // Value of grid cells left without a tile in the last row.
   uint8_t empty_value = 0;
 

@@ -5,6 +5,8 @@
 #include <limits>
 #include <sstream>
 
+#include <Eigen/Geometry>
+
 #include "util/errors.h"
 #include "util/parallel_for.h"
 
@@ -18,6 +20,8 @@ constexpr int kHalfPixel = kSubpixelScale / 2;         // offset of a pixel cent
 // 64-bit edge functions; triangles reaching that far are dropped (they only occur for
 // corners a hair in front of the near plane).
 constexpr float kGuardBandPixels = static_cast<float>(1 << 20);
+// Barycentric weights below -kMaxBarycentricOvershoot are clamped (see ResolveRows).
+constexpr double kMaxBarycentricOvershoot = 0.01;
 
 // Floor and ceiling of a / 256 for possibly negative a.
 inline int FloorDivSubpixel(int64_t a) { return static_cast<int>(a >> kSubpixelBits); }
@@ -197,15 +201,19 @@ void ResolveRows(const rig::Vertices& vertices, const rig::Triangles& triangles,
       double b2 = ray.dot(to_origin_cross_e1) / determinant;
       if (!std::isfinite(b1) || !std::isfinite(b2)) b1 = b2 = 1.0 / 3.0;  // seen edge-on
       double b0 = 1.0 - b1 - b2;
-      // Pixel centres decided as inside on the snapped screen positions can fall a hair
-      // outside the exact triangle: clamp and renormalize.
-      b0 = std::max(b0, 0.0);
-      b1 = std::max(b1, 0.0);
-      b2 = std::max(b2, 0.0);
-      const double sum = b0 + b1 + b2;
-      b0 /= sum;
-      b1 /= sum;
-      b2 /= sum;
+      // Coverage is decided on the snapped screen positions, so a pixel centre on an edge
+      // can lie a hair outside the exact triangle: its weights then dip slightly below 0
+      // and the interpolated point stays exactly on the pixel's ray. Only clearly wrong
+      // weights (near edge-on slivers) are clamped into the triangle.
+      if (std::min({b0, b1, b2}) < -kMaxBarycentricOvershoot) {
+        b0 = std::max(b0, 0.0);
+        b1 = std::max(b1, 0.0);
+        b2 = std::max(b2, 0.0);
+        const double sum = b0 + b1 + b2;
+        b0 /= sum;
+        b1 /= sum;
+        b2 /= sum;
+      }
       barycentric[0] = static_cast<float>(b0);
       barycentric[1] = static_cast<float>(b1);
       barycentric[2] = static_cast<float>(b2);

@@ -52,9 +52,11 @@ struct GBuffer {
   std::vector<float> depth;         // #pixels, -z of the visible surface; +inf where background
   std::vector<int32_t> triangle;    // #pixels, index of the visible triangle; -1 where background
   // 3 * #pixels, perspective-correct barycentric weights (b0, b1, b2) of the visible
-  // triangle's corners in the order of its row in Triangles; they sum to 1 and are >= 0.
-  // For any attribute a that is linear over the triangle in 3D, a(pixel) = sum_i b_i a_i.
-  // Zero where background.
+  // triangle's corners in the order of its row in Triangles, exactly those of the point
+  // where the ray through the pixel centre meets the triangle's plane: for any attribute a
+  // that is linear over the triangle in 3D, a(pixel) = sum_i b_i a_i. They sum to 1; at
+  // pixel centres on a triangle's edge a weight can dip a little below 0 (coverage is
+  // decided on positions snapped to 1/256 pixel), never below -0.01. Zero where background.
   std::vector<float> barycentrics;
 
   // Workspace reused between renders: one entry per mesh vertex.

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 
+#include <Eigen/Geometry>
+
 #include "render/gbuffer_images.h"
 #include "util/errors.h"
 #include "util/parallel_for.h"

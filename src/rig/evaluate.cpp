@@ -205,14 +205,7 @@ RigEvaluator::RigEvaluator(const Rig& rig, const Options& options)
   for (int b = 0; b <= num_blocks_; ++b) {
     block_begin_[b] = static_cast<int>(static_cast<long long>(num_vertices) * b / num_blocks_);
   }
-  shape_block_begin_.resize(static_cast<size_t>(num_shapes) * (num_blocks_ + 1));
-  for (int s = 0; s < num_shapes; ++s) {
-    const std::vector<int>& vertex = rig.shapes[s].delta.vertex;
-    for (int b = 0; b <= num_blocks_; ++b) {
-      shape_block_begin_[static_cast<size_t>(s) * (num_blocks_ + 1) + b] = static_cast<int>(
-          std::lower_bound(vertex.begin(), vertex.end(), block_begin_[b]) - vertex.begin());
-    }
-  }
+  BuildShapeBlocks();
   for (int v = 0; v < num_vertices; ++v) {
     if (rig.jaw_weights[v] > 0.f) jaw_vertices_.push_back(v);
   }
@@ -240,6 +233,54 @@ RigEvaluator::RigEvaluator(const Rig& rig, const Options& options)
   jaw_shapes_ = JawShapeIndices(rig);
 }
 
+void RigEvaluator::BuildShapeBlocks() {
+  // Entries at most kMaxGap vertices apart join one run (the gap is stored as zero offsets);
+  // runs shorter than kMinRunLength stay scattered entries.
+  constexpr int kMaxGap = 2;
+  constexpr int kMinRunLength = 16;
+  const int num_shapes = rig_.NumShapes();
+  shape_blocks_.resize(static_cast<size_t>(num_shapes) * num_blocks_);
+  for (int s = 0; s < num_shapes; ++s) {
+    const SparseDelta& delta = rig_.shapes[s].delta;
+    const int num_entries = static_cast<int>(delta.vertex.size());
+    for (int b = 0; b < num_blocks_; ++b) {
+      ShapeBlock& block = shape_blocks_[static_cast<size_t>(s) * num_blocks_ + b];
+      block.run_begin = static_cast<int>(dense_runs_.size());
+      block.scattered_begin = static_cast<int>(scattered_vertex_.size());
+      int k = static_cast<int>(std::lower_bound(delta.vertex.begin(), delta.vertex.end(),
+                                                block_begin_[b]) - delta.vertex.begin());
+      while (k < num_entries && delta.vertex[k] < block_begin_[b + 1]) {
+        int last = k;  // last entry of the run starting at k
+        while (last + 1 < num_entries && delta.vertex[last + 1] < block_begin_[b + 1] &&
+               delta.vertex[last + 1] - delta.vertex[last] <= kMaxGap) {
+          ++last;
+        }
+        const int first_vertex = delta.vertex[k];
+        const int count = delta.vertex[last] - first_vertex + 1;
+        if (count >= kMinRunLength) {
+          DenseRun run{first_vertex, count, static_cast<int>(dense_offsets_.size())};
+          dense_offsets_.resize(dense_offsets_.size() + 3 * static_cast<size_t>(count), 0.f);
+          for (int e = k; e <= last; ++e) {
+            float* o = &dense_offsets_[run.offset_begin + 3 * (delta.vertex[e] - first_vertex)];
+            o[0] = delta.offset[e].x();
+            o[1] = delta.offset[e].y();
+            o[2] = delta.offset[e].z();
+          }
+          dense_runs_.push_back(run);
+        } else {
+          for (int e = k; e <= last; ++e) {
+            scattered_vertex_.push_back(delta.vertex[e]);
+            scattered_offset_.push_back(delta.offset[e]);
+          }
+        }
+        k = last + 1;
+      }
+      block.run_end = static_cast<int>(dense_runs_.size());
+      block.scattered_end = static_cast<int>(scattered_vertex_.size());
+    }
+  }
+}
+
 void RigEvaluator::CheckWeights(const Eigen::VectorXf& weights) const {
   CheckWeightCount(rig_, weights);
 }
@@ -264,7 +305,6 @@ void RigEvaluator::EvaluateShape(const Eigen::VectorXf& weights, Vertices* out) 
   const int num_vertices = rig_.NumVertices();
   out->resize(num_vertices, 3);
   const JawMotion jaw = ComputeJawMotion(rig_, weights);
-  const int stride = num_blocks_ + 1;
   ForEachBlock(num_blocks_, options_.num_threads, [&](int b) {
     const int begin = block_begin_[b], end = block_begin_[b + 1];
     std::copy(rig_.neutral.data() + 3 * static_cast<std::ptrdiff_t>(begin),
@@ -274,8 +314,22 @@ void RigEvaluator::EvaluateShape(const Eigen::VectorXf& weights, Vertices* out) 
     for (int s = 0; s < rig_.NumShapes(); ++s) {
       const float w = weights[s];
       if (w == 0.f) continue;
-      const int* range = &shape_block_begin_[static_cast<size_t>(s) * stride + b];
-      AddDeltaEntries(rig_.shapes[s].delta, w, range[0], range[1], out->data());
+      const ShapeBlock& block = shape_blocks_[static_cast<size_t>(s) * num_blocks_ + b];
+      for (int r = block.run_begin; r < block.run_end; ++r) {
+        const DenseRun& run = dense_runs_[r];
+        float* __restrict o = out->data() + 3 * static_cast<std::ptrdiff_t>(run.first_vertex);
+        const float* __restrict d = dense_offsets_.data() + run.offset_begin;
+        const int n = 3 * run.count;
+        for (int i = 0; i < n; ++i) o[i] += w * d[i];
+      }
+      float* o = out->data();
+      for (int e = block.scattered_begin; e < block.scattered_end; ++e) {
+        float* p = o + 3 * static_cast<std::ptrdiff_t>(scattered_vertex_[e]);
+        const Eigen::Vector3f& d = scattered_offset_[e];
+        p[0] += w * d.x();
+        p[1] += w * d.y();
+        p[2] += w * d.z();
+      }
     }
     // (M R(w) + (1 - M) I)(...) + M T(w)
     if (jaw.moves) {

@@ -91,14 +91,31 @@ class RigEvaluator {
     int shape;
     Eigen::Vector3f offset;
   };
+  // A run of consecutive vertices [first_vertex, first_vertex + count) of one shape whose
+  // offsets are stored densely (3 * count floats from dense_offsets_[offset_begin]), so that
+  // adding w_i D_i over it is one vectorizable axpy.
+  struct DenseRun {
+    int first_vertex;
+    int count;
+    int offset_begin;
+  };
+  // The part of shape s inside vertex block b: dense runs plus isolated (scattered) entries.
+  struct ShapeBlock {
+    int run_begin, run_end;
+    int scattered_begin, scattered_end;
+  };
   void CheckWeights(const Eigen::VectorXf& weights) const;
+  void BuildShapeBlocks();
 
   const Rig& rig_;
   Options options_;
   int num_blocks_ = 1;
   std::vector<int> block_begin_;            // num_blocks_ + 1 vertex boundaries
-  // shape_block_begin_[s * (num_blocks_ + 1) + b]: first delta entry of shape s in block b.
-  std::vector<int> shape_block_begin_;
+  std::vector<ShapeBlock> shape_blocks_;     // [s * num_blocks_ + b]
+  std::vector<DenseRun> dense_runs_;
+  std::vector<float> dense_offsets_;
+  std::vector<int> scattered_vertex_;
+  std::vector<Eigen::Vector3f> scattered_offset_;
   std::vector<int> jaw_vertices_;            // vertices with M > 0, ascending
   std::vector<int> jaw_block_begin_;         // num_blocks_ + 1 boundaries into jaw_vertices_
   std::vector<int> vertex_delta_begin_;      // #V + 1 row offsets into vertex_deltas_

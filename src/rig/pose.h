@@ -1,7 +1,7 @@
 // Rigid head pose P_rigid (paper 000 Sec. 6 and 8): pitch p, yaw y, plus roll, translation and
 // scale for real footage. x_camera = scale * R(pitch, yaw, roll) * x_head + translation, with
 // R = Rz(roll) * Ry(yaw) * Rx(pitch). Positive yaw turns the face towards the head's left (+x),
-// positive pitch tilts the face up.
+// positive pitch tilts the face down (the nose moves towards -y).
 #ifndef FACECAP_RIG_POSE_H_
 #define FACECAP_RIG_POSE_H_
 

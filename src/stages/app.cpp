@@ -30,6 +30,8 @@ int RunApp(int argc, char** argv) {
   RegisterVersion(&app, &state);
   RegisterRig(&app, &state);
   RegisterRender(&app, &state);
+  RegisterSynth(&app, &state);
+  RegisterRun(&app, &state);
 
   int code = kExitOk;
   try {

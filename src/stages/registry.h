@@ -3,8 +3,12 @@
 #ifndef FACECAP_STAGES_REGISTRY_H_
 #define FACECAP_STAGES_REGISTRY_H_
 
+#include <functional>
 #include <list>
 #include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -13,16 +17,61 @@
 
 namespace facecap::stages {
 
+template <typename T, typename = void>
+struct HasOut : std::false_type {};
+template <typename T>
+struct HasOut<T, std::void_t<decltype(std::declval<T>().out)>> : std::true_type {};
+
+// What `facecap run` needs to know of a stage: how to run it from a job file, and how to
+// resolve its table to the configuration text and output path that its output records.
+struct StageSpec {
+  std::string table;         // "synth.samples"
+  std::string command;       // "synth samples"
+  std::function<void(const StageFlags&)> run;
+  // Resolved TOML of the table (as stored in the output's config_hash) and the output path.
+  std::function<std::pair<std::string, std::string>(const io::Config&)> resolve;
+};
+
 struct AppState {
   dist::Comm comm = dist::Comm::Single();
   std::string command_line;
   std::list<StageFlags> stage_flags;  // one per subcommand; a list keeps pointers stable
   StageFlags* NewFlags() { return &stage_flags.emplace_back(); }
+  std::vector<StageSpec> stages;      // in pipeline order, for `facecap run`
 };
+
+// Adds a subcommand for a stage whose options are `Options` (table `table`), runnable by
+// `facecap run`: flags from the options, --job and --set, and the callback.
+template <typename Options>
+CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
+                   const std::string& table, const std::string& command,
+                   const std::string& description,
+                   std::function<void(const StageFlags&, AppState*)> run) {
+  StageFlags* flags = state->NewFlags();
+  CLI::App* sub = parent->add_subcommand(name, description);
+  AddStageFlags<Options>(sub, table, flags);
+  sub->callback([=] { run(*flags, state); });
+  StageSpec spec;
+  spec.table = table;
+  spec.command = command;
+  spec.run = [=](const StageFlags& f) { run(f, state); };
+  spec.resolve = [table](const io::Config& config) {
+    Options options = io::ResolveOptions<Options>(config, table);
+    io::Config resolved;
+    io::StoreOptions(options, table, &resolved);
+    std::string out;
+    if constexpr (HasOut<Options>::value) out = options.out;
+    return std::make_pair(resolved.ToToml(), out);
+  };
+  state->stages.push_back(spec);
+  return sub;
+}
 
 void RegisterVersion(CLI::App* app, AppState* state);
 void RegisterRig(CLI::App* app, AppState* state);
 void RegisterRender(CLI::App* app, AppState* state);
+void RegisterSynth(CLI::App* app, AppState* state);
+void RegisterRun(CLI::App* app, AppState* state);
 
 std::string VersionReport(const dist::Comm& comm);
 

@@ -7,6 +7,7 @@
 #include "io/image_io.h"
 #include "io/rig_io.h"
 #include "render/contact_sheet.h"
+#include "render/framing.h"
 #include "render/gbuffer_images.h"
 #include "render/rasterizer.h"
 #include "render/shading.h"
@@ -28,7 +29,7 @@ struct RenderStageOptions {
   std::string mode = "shaded";           // segmentation, shaded, uv or depth
   int size = 512;                        // image width and height in pixels
   float fov_deg = 20.f;                  // vertical field of view
-  float pitch_deg = 0.f;                 // head pitch (positive: face up)
+  float pitch_deg = 0.f;                 // head pitch (positive: face down)
   float yaw_deg = 0.f;                   // head yaw (positive: towards the head's left)
   float roll_deg = 0.f;                  // head roll
   std::vector<std::string> weights;      // shape weights as name=value
@@ -42,7 +43,7 @@ struct RenderStageOptions {
     v("mode", mode, "what to draw: segmentation, shaded, uv or depth");
     v("size", size, "image width and height in pixels");
     v("fov_deg", fov_deg, "vertical field of view in degrees; the head is framed to fit");
-    v("pitch_deg", pitch_deg, "head pitch in degrees (positive tilts the face up)");
+    v("pitch_deg", pitch_deg, "head pitch in degrees (positive tilts the face down)");
     v("yaw_deg", yaw_deg, "head yaw in degrees (positive turns the face to the head's left)");
     v("roll_deg", roll_deg, "head roll in degrees");
     v("weights", weights, "shape weights as name=value, e.g. jawOpen=0.7,eyeBlinkLeft=1");
@@ -99,15 +100,7 @@ Framing FrameHead(const rig::Rig& rig, int size, float fov_deg, float pitch, flo
                   float roll) {
   Framing f;
   f.camera = render::Camera::FromFov(size, size, fov_deg);
-  const Eigen::Vector3f lo = rig.neutral.colwise().minCoeff();
-  const Eigen::Vector3f hi = rig.neutral.colwise().maxCoeff();
-  const Eigen::Vector3f centre = 0.5f * (lo + hi);
-  const float extent = std::max(hi.y() - lo.y(), hi.x() - lo.x());
-  const float distance = 0.58f * extent / std::tan(0.5f * fov_deg * kDegToRad) + 0.5f * (hi.z() - lo.z());
-  f.pose.pitch = pitch;
-  f.pose.yaw = yaw;
-  f.pose.roll = roll;
-  f.pose.translation = Eigen::Vector3f(0.f, 0.f, -distance) - f.pose.Rotation() * centre;
+  f.pose = render::FramedPose(rig, render::FramingDistance(rig, f.camera), pitch, yaw, roll);
   return f;
 }
 
@@ -267,12 +260,11 @@ void RunRender(const StageFlags& flags, AppState* state) {
 }  // namespace
 
 void RegisterRender(CLI::App* app, AppState* state) {
-  StageFlags* flags = state->NewFlags();
-  CLI::App* sub = app->add_subcommand(
-      "render", "Render a rig at a pose and shape weights (segmentation, shaded, UV or depth) to "
-                "PNG/EXR, or with --sheet a contact sheet of the neutral and expressions");
-  AddStageFlags<RenderStageOptions>(sub, "render", flags);
-  sub->callback([=] { RunRender(*flags, state); });
+  AddStage<RenderStageOptions>(
+      app, state, "render", "render", "render",
+      "Render a rig at a pose and shape weights (segmentation, shaded, UV or depth) to PNG/EXR, "
+      "or with --sheet a contact sheet of the neutral and expressions",
+      RunRender);
 }
 
 }  // namespace facecap::stages

@@ -147,25 +147,19 @@ void RegisterRig(CLI::App* app, AppState* state) {
   CLI::App* rig = app->add_subcommand("rig", "Make, import, export and describe face rigs");
   rig->require_subcommand(1);
 
-  StageFlags* demo_flags = state->NewFlags();
-  CLI::App* demo = rig->add_subcommand(
-      "demo", "Generate the procedural demo head: a closed mesh with eyes, eyelids, lips and a "
-              "mouth opening, 12+ segmentation regions, the 68 iBUG landmarks, the 52 ARKit "
-              "shapes (jaw shapes through jaw skinning) and identity modes");
-  AddStageFlags<RigDemoOptions>(demo, "rig.demo", demo_flags);
-  demo->callback([=] { RunRigDemo(*demo_flags, state); });
-
-  StageFlags* import_flags = state->NewFlags();
-  CLI::App* import = rig->add_subcommand(
-      "import", "Import a rig from an OBJ folder (neutral.obj + <shape>.obj) or a glTF file "
-                "with morph targets");
-  AddStageFlags<RigImportOptions>(import, "rig.import", import_flags);
-  import->callback([=] { RunRigImport(*import_flags, state); });
-
-  StageFlags* export_flags = state->NewFlags();
-  CLI::App* exp = rig->add_subcommand("export", "Export a rig to OBJ files and/or glTF");
-  AddStageFlags<RigExportOptions>(exp, "rig.export", export_flags);
-  exp->callback([=] { RunRigExport(*export_flags, state); });
+  AddStage<RigDemoOptions>(
+      rig, state, "demo", "rig.demo", "rig demo",
+      "Generate the procedural demo head: a closed mesh with eyes, eyelids, lips and a mouth "
+      "opening, 12+ segmentation regions, the 68 iBUG landmarks, the 52 ARKit shapes (jaw "
+      "shapes through jaw skinning) and identity modes",
+      RunRigDemo);
+  AddStage<RigImportOptions>(
+      rig, state, "import", "rig.import", "rig import",
+      "Import a rig from an OBJ folder (neutral.obj + <shape>.obj) or a glTF file with morph "
+      "targets",
+      RunRigImport);
+  AddStage<RigExportOptions>(rig, state, "export", "rig.export", "rig export",
+                             "Export a rig to OBJ files and/or glTF", RunRigExport);
 }
 
 }  // namespace facecap::stages

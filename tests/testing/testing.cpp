@@ -1,6 +1,8 @@
 #include "testing/testing.h"
 
+#include <cstdio>
 #include <cstdlib>
+#include <sys/wait.h>
 #include <filesystem>
 #include <stdexcept>
 #include <vector>
@@ -19,6 +21,31 @@ TempDir::TempDir() {
 TempDir::~TempDir() {
   std::error_code ec;
   std::filesystem::remove_all(path_, ec);
+}
+
+CommandResult RunCommand(const std::string& command) {
+  CommandResult r;
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (!pipe) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) r.output.append(buf, n);
+  const int status = pclose(pipe);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return r;
+}
+
+std::string MpiExec(int ranks) {
+  return std::string(FACECAP_MPIEXEC) +
+         " --oversubscribe --allow-run-as-root --mca btl_vader_single_copy_mechanism none -n " +
+         std::to_string(ranks);
+}
+
+CommandResult RunFacecap(const std::string& args, int ranks, const std::string& env) {
+  std::string cmd = env.empty() ? "" : "env " + env + " ";
+  if (ranks > 0) cmd += MpiExec(ranks) + " ";
+  cmd += BuildDir() + "/facecap " + args;
+  return RunCommand(cmd);
 }
 
 std::string BuildDir() { return FACECAP_BUILD_DIR; }

@@ -20,6 +20,19 @@ class TempDir {
   std::string path_;
 };
 
+// Result of running a command: exit code and stdout + stderr.
+struct CommandResult {
+  int code = -1;
+  std::string output;
+};
+// Runs a shell command and captures its output.
+CommandResult RunCommand(const std::string& command);
+// Runs build/facecap with `args` (a shell word list), optionally under mpiexec with `ranks`
+// ranks (0: no launcher) and with environment assignments `env` ("A=1 B=2").
+CommandResult RunFacecap(const std::string& args, int ranks = 0, const std::string& env = "");
+// The launcher command for `ranks` ranks (oversubscribed, allowed as root).
+std::string MpiExec(int ranks);
+
 // The directory that holds the facecap binary and the test binaries' parent (build/).
 std::string BuildDir();
 // The source tree's root (for jobs/ and datasets/).

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Segmentation renders per second per core at 128x128 (DESIGN.md target: >= 500), measured
+# on one thread, with the other rasterizer outputs for reference.
+#
+#   analysis/bench_render.sh [BUILD_DIR] [-- extra facecap_bench_render options]
+#
+# BUILD_DIR defaults to $FACECAP_BUILD_DIR, then build/ under the source tree. Extra
+# options go to the benchmark, e.g. `-- --rig rig.h5` for a real head, `-- --size 256`.
+set -euo pipefail
+
+source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build_dir="${FACECAP_BUILD_DIR:-${source_dir}/build}"
+if [[ $# -gt 0 && "$1" != "--" ]]; then
+  build_dir="$1"
+  shift
+fi
+[[ $# -gt 0 && "$1" == "--" ]] && shift
+
+if [[ -f "${build_dir}/build.ninja" || -f "${build_dir}/Makefile" ]]; then
+  build_log="$(mktemp)"
+  trap 'rm -f "${build_log}"' EXIT
+  if ! cmake --build "${build_dir}" --target facecap_bench_render >"${build_log}" 2>&1; then
+    tail -n 40 "${build_log}" >&2
+    echo "error: building facecap_bench_render in ${build_dir} failed" >&2
+    exit 1
+  fi
+fi
+bench="${build_dir}/facecap_bench_render"
+if [[ ! -x "${bench}" ]]; then
+  echo "error: ${bench} not found; configure and build first (cmake -S . -B build -G Ninja)" >&2
+  exit 1
+fi
+
+echo "# facecap render benchmark, 1 thread ($(uname -m), $(nproc) cores on this machine)"
+OMP_NUM_THREADS=1 "${bench}" --size 128 "$@"

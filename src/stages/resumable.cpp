@@ -1,0 +1,49 @@
+#include "stages/resumable.h"
+
+#include <filesystem>
+
+#include "util/errors.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+
+ResumableOutput OpenResumableOutput(const std::string& path, const std::string& config_text,
+                                    const io::Provenance& provenance) {
+  ResumableOutput out;
+  const std::string hash = io::ConfigHash(config_text);
+  if (io::H5File::IsHdf5(path)) {
+    try {
+      io::H5File existing = io::H5File::OpenRead(path);
+      if (existing.HasAttribute("/", "config_hash") &&
+          existing.GetStringAttribute("/", "config_hash") == hash) {
+        out.up_to_date = true;
+        return out;
+      }
+    } catch (const FileIOError&) {
+      // Unreadable: recompute it.
+    }
+  }
+  const std::string partial = io::H5File::PartialPath(path);
+  if (io::H5File::IsHdf5(partial)) {
+    bool resumed = false;
+    io::H5File file = io::H5File::OpenOrCreatePartial(path, &resumed);
+    if (resumed) {
+      const std::string old = file.HasAttribute("/", "config_hash")
+                                  ? file.GetStringAttribute("/", "config_hash")
+                                  : std::string();
+      if (old != hash) {
+        throw InvalidInputError(partial + " holds an interrupted run with other options; rerun "
+                                "with the same options to continue it, or delete it to start over");
+      }
+      out.file = std::move(file);
+      out.resumed = true;
+      return out;
+    }
+  }
+  out.file = io::H5File::CreateAtomic(path);
+  out.file.WriteProvenance(provenance);
+  out.file.SetAttribute("/", "config_hash", hash);
+  return out;
+}
+
+}  // namespace facecap::stages

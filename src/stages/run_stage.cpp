@@ -1,0 +1,133 @@
+// facecap run JOB.toml: the job's stages in pipeline order; a stage whose output exists and
+// records the same configuration is skipped, so rerunning after a crash or a requeue continues.
+#include <filesystem>
+#include <iostream>
+
+#include "io/hdf5.h"
+#include "stages/cli.h"
+#include "stages/registry.h"
+#include "util/errors.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+namespace {
+
+struct RunFlags {
+  std::string job;
+  std::vector<std::string> sets;
+  std::string from;
+  std::string until;
+  bool dry_run = false;
+};
+
+// Why a stage runs, or "" when its output is up to date.
+std::string WhyRun(const StageSpec& spec, const io::Config& config, std::string* out) {
+  const auto [resolved, output] = spec.resolve(config);
+  *out = output;
+  if (output.empty()) return "it has no recorded output";
+  if (!std::filesystem::exists(output)) {
+    return std::filesystem::exists(io::H5File::PartialPath(output))
+               ? "an interrupted run left " + io::H5File::PartialPath(output) + " to continue"
+               : "its output " + output + " does not exist";
+  }
+  if (!io::H5File::IsHdf5(output)) return "its output " + output + " is not an HDF5 file";
+  try {
+    io::H5File f = io::H5File::OpenRead(output);
+    if (!f.HasAttribute("/", "config_hash")) return "its output records no configuration";
+    if (f.GetStringAttribute("/", "config_hash") != io::ConfigHash(resolved)) {
+      return "its output was made with another configuration";
+    }
+  } catch (const FileIOError& e) {
+    return std::string("its output is unreadable: ") + e.what();
+  }
+  return "";
+}
+
+void RunJob(const RunFlags& flags, AppState* state) {
+  io::Config config = io::Config::Load(flags.job);
+  for (const auto& s : flags.sets) config.SetAssignment(s);
+  // Which stages: [run] stages = [...] in that order, else every stage table present.
+  std::vector<std::string> tables;
+  if (config.Has("run", "stages")) {
+    config.Get("run", "stages", &tables);
+  } else {
+    for (const StageSpec& spec : state->stages) {
+      if (config.HasTable(spec.table)) tables.push_back(spec.table);
+    }
+  }
+  for (const std::string& key : config.Keys("run")) {
+    if (key != "stages") {
+      throw InvalidInputError(flags.job + ": unknown key '" + key + "' in [run]; valid keys: stages");
+    }
+  }
+  std::vector<const StageSpec*> plan;
+  for (const std::string& table : tables) {
+    const StageSpec* found = nullptr;
+    for (const StageSpec& spec : state->stages) {
+      if (spec.table == table) found = &spec;
+    }
+    if (!found) {
+      std::string valid;
+      for (const StageSpec& spec : state->stages) valid += (valid.empty() ? "" : ", ") + spec.table;
+      throw InvalidInputError(flags.job + ": [run] stages names '" + table +
+                              "', which is not a stage; stages: " + valid);
+    }
+    plan.push_back(found);
+  }
+  auto index_of = [&](const std::string& table, const char* flag) {
+    for (size_t i = 0; i < plan.size(); ++i) if (plan[i]->table == table) return i;
+    throw InvalidInputError(std::string("--") + flag + " " + table + ": not a stage of " + flags.job);
+  };
+  const size_t first = flags.from.empty() ? 0 : index_of(flags.from, "from");
+  const size_t last = flags.until.empty() ? plan.size() - 1 : index_of(flags.until, "until");
+  const bool main_rank = state->comm.IsMainRank();
+  if (main_rank) FC_INFO("run {}: {} stages", flags.job, plan.size());
+  for (size_t i = 0; i < plan.size(); ++i) {
+    const StageSpec& spec = *plan[i];
+    std::string out;
+    std::string why = WhyRun(spec, config, &out);
+    if (i < first || i > last) why = "";
+    const bool forced = (!flags.from.empty() && i == first);
+    if (forced && why.empty()) why = "--from starts here";
+    if (flags.dry_run) {
+      if (main_rank) {
+        std::cout << "[" << (i + 1) << "/" << plan.size() << "] " << spec.command << ": "
+                  << (i < first || i > last ? "outside --from/--until, skipped"
+                                            : why.empty() ? "up to date, skipped" : "runs: " + why)
+                  << "\n";
+      }
+      continue;
+    }
+    if (why.empty()) {
+      if (main_rank) FC_INFO("[{}/{}] {}: up to date ({}), skipped", i + 1, plan.size(), spec.command, out);
+      continue;
+    }
+    if (main_rank) FC_INFO("[{}/{}] {}: runs because {}", i + 1, plan.size(), spec.command, why);
+    if (forced && std::filesystem::exists(out)) std::filesystem::remove(out);
+    StageFlags stage_flags;
+    stage_flags.job = flags.job;
+    stage_flags.sets = flags.sets;
+    stage_flags.table = spec.table;
+    spec.run(stage_flags);
+  }
+  if (main_rank && !flags.dry_run) FC_INFO("run {}: done", flags.job);
+}
+
+}  // namespace
+
+void RegisterRun(CLI::App* app, AppState* state) {
+  static RunFlags run_flags;  // RegisterRun is called once per process
+  RunFlags* flags = &run_flags;
+  CLI::App* sub = app->add_subcommand(
+      "run", "Run a job file's stages in order ([run] stages = [...], or every stage table it "
+             "has, in pipeline order). A stage whose output exists and records the same "
+             "configuration is skipped, so rerunning continues after a crash or a requeue");
+  sub->add_option("job", flags->job, "TOML job file")->required()->check(CLI::ExistingFile);
+  sub->add_option("--set", flags->sets, "override a job-file value: --set table.key=value");
+  sub->add_option("--from", flags->from, "start at this stage table (it reruns even if up to date)");
+  sub->add_option("--until", flags->until, "stop after this stage table");
+  sub->add_flag("--dry-run", flags->dry_run, "print what would run and why, run nothing");
+  sub->callback([=] { RunJob(*flags, state); });
+}
+
+}  // namespace facecap::stages

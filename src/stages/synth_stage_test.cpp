@@ -1,0 +1,142 @@
+// facecap synth samples end to end: rank-count independence, limits on every sample, and
+// restarts after a kill or a SIGTERM that reproduce the uninterrupted dataset.
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "io/hdf5.h"
+#include "testing/testing.h"
+#include "util/errors.h"
+
+namespace facecap::stages {
+namespace {
+
+using testing::RunFacecap;
+
+const char* const kDatasets[] = {"/samples/segmentation", "/samples/weights", "/samples/pose",
+                                 "/samples/landmarks", "/samples/landmark_visible"};
+
+class SynthSamples : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    auto r = RunFacecap("rig demo --out " + Rig());
+    ASSERT_EQ(r.code, 0) << r.output;
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static std::string Rig() { return dir_->File("rig.h5"); }
+  static std::string Args(const std::string& out) {
+    return "synth samples --rig " + Rig() + " --count 48 --size 32 --batch 4 --out " + out;
+  }
+  static std::vector<uint8_t> Bytes(const std::string& path, const std::string& name) {
+    io::H5File f = io::H5File::OpenRead(path);
+    io::Shape shape = f.DatasetShape(name);
+    const int64_t n = io::H5File::NumElements(shape);
+    if (name == "/samples/segmentation" || name == "/samples/landmark_visible") {
+      return f.Read<uint8_t>(name, {});
+    }
+    std::vector<float> v = f.Read<float>(name, {});
+    std::vector<uint8_t> b(n * sizeof(float));
+    std::memcpy(b.data(), v.data(), b.size());
+    return b;
+  }
+  static void ExpectSameDatasets(const std::string& a, const std::string& b) {
+    for (const char* name : kDatasets) {
+      EXPECT_EQ(Bytes(a, name), Bytes(b, name)) << name << " differs between " << a << " and " << b;
+    }
+  }
+  static testing::TempDir* dir_;
+};
+
+testing::TempDir* SynthSamples::dir_ = nullptr;
+
+TEST_F(SynthSamples, OneAndThreeRanksWriteIdenticalDatasets) {
+  const std::string one = dir_->File("one.h5"), three = dir_->File("three.h5");
+  auto r1 = RunFacecap(Args(one), 1);
+  ASSERT_EQ(r1.code, 0) << r1.output;
+  auto r3 = RunFacecap(Args(three), 3);
+  ASSERT_EQ(r3.code, 0) << r3.output;
+  ExpectSameDatasets(one, three);
+  io::H5File f = io::H5File::OpenRead(three);
+  EXPECT_EQ(f.GetIntAttribute("/", "mpi_ranks"), 3);
+  EXPECT_EQ(f.DatasetShape("/samples/segmentation"), (io::Shape{48, 32, 32, 3}));
+  // Samples are not all alike: the images differ.
+  std::vector<uint8_t> seg = f.Read<uint8_t>("/samples/segmentation", {});
+  EXPECT_NE(std::vector<uint8_t>(seg.begin(), seg.begin() + 3072),
+            std::vector<uint8_t>(seg.begin() + 3072, seg.begin() + 6144));
+}
+
+TEST_F(SynthSamples, SparsityAndPoseLimitsHoldOnEverySample) {
+  const std::string out = dir_->File("limits.h5");
+  auto r = RunFacecap(Args(out) + " --sparsity-groups mouth,eye --sparsity-max-active 3,1"
+                      " --yaw-limit-deg 30 --pitch-limit-deg 5");
+  ASSERT_EQ(r.code, 0) << r.output;
+  io::H5File f = io::H5File::OpenRead(out);
+  const auto names = f.ReadStrings("/samples/shape_names");
+  const auto w = f.ReadMatrix<float>("/samples/weights", 48, names.size());
+  const auto pose = f.ReadMatrix<float>("/samples/pose", 48, 3);
+  int active_total = 0;
+  for (int i = 0; i < 48; ++i) {
+    int mouth = 0, eye = 0;
+    for (size_t s = 0; s < names.size(); ++s) {
+      const float v = w(i, s);
+      ASSERT_GE(v, 0.f);
+      ASSERT_LE(v, 1.f);
+      if (v == 0.f) continue;
+      ++active_total;
+      if (names[s].rfind("mouth", 0) == 0) ++mouth;
+      else if (names[s].rfind("eye", 0) == 0) ++eye;
+      else ADD_FAILURE() << "shape " << names[s] << " is in no group but active in sample " << i;
+    }
+    EXPECT_LE(mouth, 3) << "sample " << i;
+    EXPECT_LE(eye, 1) << "sample " << i;
+    EXPECT_LE(std::abs(pose(i, 0)), 5.f * M_PI / 180.f + 1e-6f);
+    EXPECT_LE(std::abs(pose(i, 1)), 30.f * M_PI / 180.f + 1e-6f);
+  }
+  EXPECT_GT(active_total, 48);  // the limits are reached, not just respected by empty samples
+}
+
+TEST_F(SynthSamples, KilledRunContinuesToTheUninterruptedResult) {
+  const std::string straight = dir_->File("straight.h5"), killed = dir_->File("killed.h5");
+  ASSERT_EQ(RunFacecap(Args(straight)).code, 0);
+  auto crash = RunFacecap(Args(killed), 0, "FACECAP_FAULT_AFTER_FRAMES=12 FACECAP_FAULT_SIGNAL=KILL");
+  EXPECT_NE(crash.code, 0);
+  EXPECT_FALSE(std::filesystem::exists(killed));
+  ASSERT_TRUE(std::filesystem::exists(killed + ".partial"));
+  auto rerun = RunFacecap(Args(killed));
+  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  EXPECT_NE(rerun.output.find("continuing"), std::string::npos) << rerun.output;
+  ExpectSameDatasets(straight, killed);
+}
+
+TEST_F(SynthSamples, SigtermCheckpointsExitsWith75AndResumesOnThreeRanks) {
+  const std::string straight = dir_->File("straight2.h5"), stopped = dir_->File("stopped.h5");
+  ASSERT_EQ(RunFacecap(Args(straight)).code, 0);
+  auto stop = RunFacecap(Args(stopped), 3, "FACECAP_FAULT_AFTER_FRAMES=12");
+  EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
+  auto rerun = RunFacecap(Args(stopped), 2);
+  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  ExpectSameDatasets(straight, stopped);
+  // A third run finds the output up to date.
+  auto again = RunFacecap(Args(stopped));
+  EXPECT_EQ(again.code, 0);
+  EXPECT_NE(again.output.find("up to date"), std::string::npos) << again.output;
+}
+
+TEST_F(SynthSamples, BadOptionsAreUsageErrors) {
+  const std::string out = dir_->File("bad.h5");
+  EXPECT_EQ(RunFacecap(Args(out) + " --count -5").code, kExitUsage);
+  auto nomatch = RunFacecap(Args(out) + " --sparsity-groups lips --sparsity-max-active 5");
+  EXPECT_EQ(nomatch.code, kExitUsage);
+  EXPECT_NE(nomatch.output.find("'lips' matches no shape"), std::string::npos) << nomatch.output;
+  EXPECT_EQ(RunFacecap(Args(out) + " --sparsity-groups mouth --sparsity-max-active 0").code,
+            kExitUsage);
+  EXPECT_EQ(RunFacecap(Args(out) + " --yaw-limit-deg 120").code, kExitUsage);
+  EXPECT_EQ(RunFacecap(Args(out) + " --sparsity-max-active 1,2").code, kExitUsage);
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+}  // namespace
+}  // namespace facecap::stages
