@@ -31,5 +31,5 @@ if [[ ! -x "${bench}" ]]; then
   exit 1
 fi
 
-echo "# facecap render benchmark, 1 thread ($(uname -m), $(nproc) cores on this machine)"
+echo "# facecap render benchmark, 1 thread ($(uname -m), $(getconf _NPROCESSORS_ONLN) cores on this machine)"
 OMP_NUM_THREADS=1 "${bench}" --size 128 "$@"

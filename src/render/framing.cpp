@@ -6,14 +6,33 @@
 namespace facecap::render {
 
 namespace {
-Eigen::Vector3f BoxCentre(const rig::Rig& rig) {
-  return 0.5f * (rig.neutral.colwise().minCoeff() + rig.neutral.colwise().maxCoeff()).transpose();
+
+void FramedBox(const rig::Rig& rig, Eigen::Vector3f* lo, Eigen::Vector3f* hi) {
+  if (rig.landmarks.size() > 0) {
+    *lo = Eigen::Vector3f::Constant(1e30f);
+    *hi = Eigen::Vector3f::Constant(-1e30f);
+    for (int i = 0; i < rig.landmarks.size(); ++i) {
+      const Eigen::Vector3f p = rig.neutral.row(rig.landmarks[i]).transpose();
+      *lo = lo->cwiseMin(p);
+      *hi = hi->cwiseMax(p);
+    }
+    return;
+  }
+  *lo = rig.neutral.colwise().minCoeff().transpose();
+  *hi = rig.neutral.colwise().maxCoeff().transpose();
 }
+
+Eigen::Vector3f BoxCentre(const rig::Rig& rig) {
+  Eigen::Vector3f lo, hi;
+  FramedBox(rig, &lo, &hi);
+  return 0.5f * (lo + hi);
+}
+
 }  // namespace
 
 float FramingDistance(const rig::Rig& rig, const Camera& camera, float fill) {
-  const Eigen::Vector3f lo = rig.neutral.colwise().minCoeff();
-  const Eigen::Vector3f hi = rig.neutral.colwise().maxCoeff();
+  Eigen::Vector3f lo, hi;
+  FramedBox(rig, &lo, &hi);
   const float extent = std::max(hi.y() - lo.y(), hi.x() - lo.x()) / std::max(1e-3f, fill);
   // Half the extent must span half the image height: extent/2 / d = (h/2) / fy.
   const float distance = 0.5f * extent * camera.fy / (0.5f * camera.height);

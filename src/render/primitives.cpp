@@ -99,7 +99,7 @@ rig::Rig IcosphereRig(int subdivisions, float radius, int num_regions) {
     }
     rig.regions.push_back({"sector_" + std::to_string(r), color});
   }
-  // Landmarks: the vertices closest to the front pole, the back pole and the top.
+  // Landmarks: the vertices closest to the front pole, the back pole and the upper front.
   auto closest_vertex = [&](const Eigen::Vector3f& direction) {
     int best = 0;
     (unit * direction).maxCoeff(&best);
@@ -107,7 +107,8 @@ rig::Rig IcosphereRig(int subdivisions, float radius, int num_regions) {
   };
   rig.landmarks.resize(3);
   rig.landmarks << closest_vertex(Eigen::Vector3f::UnitZ()),
-      closest_vertex(-Eigen::Vector3f::UnitZ()), closest_vertex(Eigen::Vector3f::UnitY());
+      closest_vertex(-Eigen::Vector3f::UnitZ()),
+      closest_vertex(Eigen::Vector3f(0.f, 1.f, 1.f).normalized());
   rig.jaw_weights = Eigen::VectorXf::Zero(num_vertices);
   return rig;
 }

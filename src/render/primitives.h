@@ -21,9 +21,10 @@ void Icosphere(int subdivisions, rig::Vertices* vertices, rig::Triangles* triang
 // A rig-shaped sphere for renderer tests and benchmarks: an icosphere of the given radius
 // (centred at the origin, +z towards a frontal camera) with longitude/latitude UVs
 // (per-corner, so triangles across the seam at u = 0 / 1 get u > 1 rather than wrapping),
-// num_regions flat-colour regions as longitude sectors, and landmarks at the front pole
-// (+z), the back pole (-z) and the top (+y), in that order. Shapes, jaw and identity
-// modes are empty.
+// num_regions flat-colour regions as longitude sectors, and landmarks at the vertices
+// nearest to the front pole (+z), the back pole (-z) and 45 degrees up from the front
+// (+y +z), in that order. Shapes, jaw and identity modes are empty. Near the poles
+// (|y| close to the radius) the longitude mapping is strongly distorted.
 //
 // Inputs:
 //   subdivisions  icosphere subdivisions (5 gives about 10k vertices and 20k triangles)

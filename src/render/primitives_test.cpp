@@ -46,19 +46,25 @@ TEST(PrimitivesTest, IcosphereRigHasConsistentAttributes) {
   EXPECT_LT(rig.triangle_region.maxCoeff(), 5);
   EXPECT_GE(rig.uv_triangles.minCoeff(), 0);
   EXPECT_LT(rig.uv_triangles.maxCoeff(), rig.uvs.rows());
-  // No UV triangle wraps around the seam: each spans less than half the u range.
+  // No UV triangle wraps around the seam: away from the poles each spans less than half
+  // the u range.
   for (int t = 0; t < num_triangles; ++t) {
     float low = 1e9f, high = -1e9f;
+    bool near_pole = false;
     for (int k = 0; k < 3; ++k) {
+      near_pole = near_pole || std::fabs(rig.neutral(rig.triangles(t, k), 1)) > 0.9f * 3.f;
       low = std::min(low, rig.uvs(rig.uv_triangles(t, k), 0));
       high = std::max(high, rig.uvs(rig.uv_triangles(t, k), 0));
     }
-    ASSERT_LT(high - low, 0.5f) << "triangle " << t;
+    if (!near_pole) {
+      ASSERT_LT(high - low, 0.5f) << "triangle " << t;
+    }
   }
   ASSERT_EQ(rig.landmarks.size(), 3);
   EXPECT_GT(rig.neutral(rig.landmarks[0], 2), 2.9f);
   EXPECT_LT(rig.neutral(rig.landmarks[1], 2), -2.9f);
-  EXPECT_GT(rig.neutral(rig.landmarks[2], 1), 2.9f);
+  EXPECT_NEAR(rig.neutral(rig.landmarks[2], 1), 3.f * std::sqrt(0.5f), 0.3f);
+  EXPECT_NEAR(rig.neutral(rig.landmarks[2], 2), 3.f * std::sqrt(0.5f), 0.3f);
 }
 
 }  // namespace

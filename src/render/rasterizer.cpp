@@ -21,7 +21,7 @@ constexpr int kHalfPixel = kSubpixelScale / 2;         // offset of a pixel cent
 // corners a hair in front of the near plane).
 constexpr float kGuardBandPixels = static_cast<float>(1 << 20);
 // Barycentric weights below -kMaxBarycentricOvershoot are clamped (see ResolveRows).
-constexpr double kMaxBarycentricOvershoot = 0.01;
+constexpr float kMaxBarycentricOvershoot = 0.01f;
 
 // Floor and ceiling of a / 256 for possibly negative a.
 inline int FloorDivSubpixel(int64_t a) { return static_cast<int>(a >> kSubpixelBits); }
@@ -175,7 +175,11 @@ void ResolveRows(const rig::Vertices& vertices, const rig::Triangles& triangles,
                  const Camera& camera, int row_begin, int row_end, GBuffer* gbuffer) {
   const int width = gbuffer->width;
   const float infinity = std::numeric_limits<float>::infinity();
+  // Camera::RayDirection(u, v) = ((u - cx) / fx, -(v - cy) / fy, -1), split per row.
+  const float ray_x_scale = 1.f / camera.fx;
+  const float ray_x_offset = -camera.cx / camera.fx;
   for (int y = row_begin; y < row_end; ++y) {
+    const float ray_y = -((y + 0.5f) - camera.cy) / camera.fy;
     for (int x = 0; x < width; ++x) {
       const int pixel = y * width + x;
       float* barycentric = &gbuffer->barycentrics[3 * static_cast<size_t>(pixel)];
@@ -187,37 +191,37 @@ void ResolveRows(const rig::Vertices& vertices, const rig::Triangles& triangles,
       }
       // Intersect the ray from the camera centre through the pixel centre with the
       // triangle (Moller-Trumbore, origin 0): hit = p0 + b1 (p1 - p0) + b2 (p2 - p0). The
-      // (b0, b1, b2) of the 3D hit point are the perspective-correct barycentrics.
-      const Eigen::Vector3d ray = camera.RayDirection(x + 0.5f, y + 0.5f).cast<double>();
-      const Eigen::Vector3d p0 = vertices.row(triangles(t, 0)).transpose().cast<double>();
-      const Eigen::Vector3d p1 = vertices.row(triangles(t, 1)).transpose().cast<double>();
-      const Eigen::Vector3d p2 = vertices.row(triangles(t, 2)).transpose().cast<double>();
-      const Eigen::Vector3d e1 = p1 - p0, e2 = p2 - p0;
-      const Eigen::Vector3d ray_cross_e2 = ray.cross(e2);
-      const double determinant = e1.dot(ray_cross_e2);
-      const Eigen::Vector3d to_origin = -p0;
-      const Eigen::Vector3d to_origin_cross_e1 = to_origin.cross(e1);
-      double b1 = to_origin.dot(ray_cross_e2) / determinant;
-      double b2 = ray.dot(to_origin_cross_e1) / determinant;
-      if (!std::isfinite(b1) || !std::isfinite(b2)) b1 = b2 = 1.0 / 3.0;  // seen edge-on
-      double b0 = 1.0 - b1 - b2;
+      // (b0, b1, b2) of the 3D hit point are the perspective-correct barycentrics. Single
+      // precision suffices: for a 3 mm triangle 60 cm away the weights are good to ~1e-5.
+      const Eigen::Vector3f ray(ray_x_scale * (x + 0.5f) + ray_x_offset, ray_y, -1.f);
+      const Eigen::Vector3f p0 = vertices.row(triangles(t, 0)).transpose();
+      const Eigen::Vector3f e1 = vertices.row(triangles(t, 1)).transpose() - p0;
+      const Eigen::Vector3f e2 = vertices.row(triangles(t, 2)).transpose() - p0;
+      const Eigen::Vector3f ray_cross_e2 = ray.cross(e2);
+      const Eigen::Vector3f p0_cross_e1 = p0.cross(e1);
+      const float inverse_determinant = 1.f / e1.dot(ray_cross_e2);
+      float b1 = -p0.dot(ray_cross_e2) * inverse_determinant;
+      float b2 = -ray.dot(p0_cross_e1) * inverse_determinant;
+      if (!std::isfinite(b1) || !std::isfinite(b2)) b1 = b2 = 1.f / 3.f;  // seen edge-on
+      float b0 = 1.f - b1 - b2;
       // Coverage is decided on the snapped screen positions, so a pixel centre on an edge
       // can lie a hair outside the exact triangle: its weights then dip slightly below 0
       // and the interpolated point stays exactly on the pixel's ray. Only clearly wrong
       // weights (near edge-on slivers) are clamped into the triangle.
       if (std::min({b0, b1, b2}) < -kMaxBarycentricOvershoot) {
-        b0 = std::max(b0, 0.0);
-        b1 = std::max(b1, 0.0);
-        b2 = std::max(b2, 0.0);
-        const double sum = b0 + b1 + b2;
-        b0 /= sum;
-        b1 /= sum;
-        b2 /= sum;
+        b0 = std::max(b0, 0.f);
+        b1 = std::max(b1, 0.f);
+        b2 = std::max(b2, 0.f);
+        const float inverse_sum = 1.f / (b0 + b1 + b2);
+        b0 *= inverse_sum;
+        b1 *= inverse_sum;
+        b2 *= inverse_sum;
       }
-      barycentric[0] = static_cast<float>(b0);
-      barycentric[1] = static_cast<float>(b1);
-      barycentric[2] = static_cast<float>(b2);
-      gbuffer->depth[pixel] = static_cast<float>(-(b0 * p0.z() + b1 * p1.z() + b2 * p2.z()));
+      barycentric[0] = b0;
+      barycentric[1] = b1;
+      barycentric[2] = b2;
+      // depth = -z of the hit point p0 + b1 e1 + b2 e2.
+      gbuffer->depth[pixel] = -(p0.z() + b1 * e1.z() + b2 * e2.z());
     }
   }
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -51,10 +52,10 @@ struct HeadParams {
   float width_scale = 1.f;          // scales the half-width of every cross-section above the jaw
   float front_depth_scale = 1.f;    // scales the depth of the face in front of the ear plane
   float back_depth_scale = 1.f;     // scales the depth of the skull behind the ear plane
-  float crown_height = 10.2f;       // top of the head above the forehead base
+  float crown_height = 8.8f;        // top of the head above the forehead base
   float face_length_scale = 1.f;    // scales heights below the eyes (nose base, mouth, chin)
   float jaw_width = 6.0f;           // half-width of the lower face at the jaw angle
-  float neck_width = 5.0f;          // half-width of the neck
+  float neck_width = 5.2f;          // half-width of the neck
   float eye_y = 0.f;                // height of the eye slits
   float eye_half_spacing = 3.15f;   // x of each eyeball centre
   float eye_half_width = 1.42f;     // half the width of each eye opening
@@ -65,7 +66,7 @@ struct HeadParams {
   float brow_height = 1.75f;        // brow line above the eye row
   float brow_ridge = 0.55f;         // forward bulge of the brow ridge
   float nose_length = 3.8f;         // nasion to nose tip, vertically
-  float nose_projection = 2.5f;     // nose tip in front of the face
+  float nose_projection = 2.35f;     // nose tip in front of the face
   float nose_bridge = 0.75f;        // bridge height at the nasion
   float nose_width = 0.95f;         // half-width of the nose tip
   float ala = 0.55f;                // bulge of the nostril wings
@@ -109,12 +110,12 @@ const std::vector<IdentityModeDef>& IdentityModeDefs() {
       {"head_depth_back", &HeadParams::back_depth_scale, 0.05f},
       {"crown_height", &HeadParams::crown_height, 0.6f},
       {"nose_bridge", &HeadParams::nose_bridge, 0.25f},
-      {"eye_depth", &HeadParams::eye_recess, 0.18f},
       {"mouth_height", &HeadParams::mouth_y, 0.3f},
       {"neck_width", &HeadParams::neck_width, 0.4f},
       {"muzzle", &HeadParams::muzzle, 0.25f},
       {"nostril_wings", &HeadParams::ala, 0.15f},
       {"socket_depth", &HeadParams::socket_depth, 0.2f},
+      {"eye_depth", &HeadParams::eye_recess, 0.1f},
   };
   return kDefs;
 }
@@ -143,7 +144,8 @@ class HeadSurface {
     const int dome_keys = 7;
     for (int k = 0; k < dome_keys; ++k) {
       const float psi = 0.5f * kPi * (1.f - static_cast<float>(k) / (dome_keys - 1));
-      const float c = std::pow(std::cos(psi), 0.8f), s = std::pow(std::sin(psi), 0.9f);
+      const float c = std::pow(std::max(0.f, std::cos(psi)), 0.8f);
+      const float s = std::pow(std::max(0.f, std::sin(psi)), 0.9f);
       keys_.push_back({y_forehead + p.crown_height * s, 7.45f * ws * c, 9.05f * fs * c,
                        9.9f * bs * c});
     }
@@ -152,18 +154,18 @@ class HeadSurface {
     keys_.push_back({p.eye_y, 7.4f * ws, 9.0f * fs, 9.6f * bs});
     keys_.push_back({p.eye_y - 3.1f * fl, 7.25f * ws, 8.9f * fs, 8.6f * bs});
     mouth_key_ = static_cast<int>(keys_.size());
-    keys_.push_back({p.eye_y + p.mouth_y * fl, 6.6f * ws, 8.75f * fs, 6.9f * bs});
+    keys_.push_back({p.eye_y + p.mouth_y * fl, 6.5f * ws, 8.75f * fs, 6.9f * bs});
     keys_.push_back({p.eye_y - 8.6f * fl, p.jaw_width * ws, 8.3f * fs, 6.1f * bs});
     chin_key_ = static_cast<int>(keys_.size());
     const float y_chin = p.eye_y + p.chin_y * fl;
-    keys_.push_back({y_chin, (p.jaw_width - 1.2f) * ws, 7.4f * fs, 5.9f * bs});
-    keys_.push_back({y_chin - 0.8f, p.neck_width + 0.2f, 5.8f, 5.8f});
+    keys_.push_back({y_chin, (p.jaw_width - 0.5f) * ws, 7.4f * fs, 5.9f * bs});
+    keys_.push_back({y_chin - 0.9f, p.neck_width + 0.1f, 5.9f, 5.8f});
     neck_key_ = static_cast<int>(keys_.size());
-    keys_.push_back({y_chin - 2.2f, p.neck_width, 4.7f, 5.7f});
-    keys_.push_back({-17.f, p.neck_width + 0.1f, 4.8f, 5.8f});
-    keys_.push_back({-20.5f, p.neck_width + 0.4f, 5.1f, 6.0f});
-    keys_.push_back({-21.3f, 0.6f * (p.neck_width + 0.4f), 3.0f, 3.6f});
-    keys_.push_back({-21.6f, 0.f, 0.f, 0.f});
+    keys_.push_back({y_chin - 2.4f, p.neck_width, 4.8f, 5.7f});
+    keys_.push_back({y_chin - 5.5f, p.neck_width + 0.2f, 4.9f, 5.8f});
+    keys_.push_back({y_chin - 7.5f, p.neck_width + 0.6f, 5.3f, 6.1f});
+    keys_.push_back({y_chin - 8.2f, 0.6f * (p.neck_width + 0.6f), 3.2f, 3.7f});
+    keys_.push_back({y_chin - 8.5f, 0.f, 0.f, 0.f});
     // Monotone cubic (PCHIP) tangents per channel: no overshoot, y stays monotone.
     const int n = static_cast<int>(keys_.size());
     tangents_.resize(n);
@@ -331,6 +333,24 @@ class HeadSurface {
     return dz;
   }
 
+  // Superellipse exponent of the front half at height y: rounded at the eyes and mouth, pointed
+  // towards the chin, rounder again on the neck.
+  float FrontExponent(float y) const {
+    const float n = 2.5f - 0.8f * Smoothstep(y_mouth_ - 0.5f, y_chin_, y) +
+                    0.6f * Smoothstep(y_chin_, y_chin_ - 2.5f, y);
+    return 2.f / n;
+  }
+
+  // Height of the jaw line (face above, neck below) at column angle theta.
+  float JawLineY(float theta) const {
+    const float deg = std::abs(theta) * 180.f / kPi;
+    const float ye = y_eye_, yc = y_chin_;
+    return Table({{0.f, yc}, {25.f, yc + 0.35f}, {45.f, yc + 1.0f}, {62.f, yc + 1.9f},
+                  {72.f, ye - 7.3f}, {80.f, ye - 5.6f}, {90.f, ye - 3.4f}, {110.f, ye - 6.0f},
+                  {180.f, ye - 7.0f}},
+                 deg);
+  }
+
   // Shell over the eyeball that the closed lids lie on; -infinity outside it.
   float EyeCoverZ(float x, float y) const {
     float best = -std::numeric_limits<float>::infinity();
@@ -339,7 +359,7 @@ class HeadSurface {
       const float dx = (x - c.x()) / (p_.eye_half_width + 0.45f);
       const float dy = (y - c.y()) / 1.55f;
       const float r2 = 1.f - dx * dx - dy * dy;
-      if (r2 > 0.f) best = std::max(best, c.z() + (kEyeballRadius + 0.16f) * std::sqrt(r2));
+      if (r2 > 0.f) best = std::max(best, c.z() + (kEyeballRadius + 0.22f) * std::sqrt(r2));
     }
     return best;
   }
@@ -347,8 +367,12 @@ class HeadSurface {
   Eigen::Vector3f Position(float theta, float t) const {
     const ProfileKey key = Profile(t);
     const float s = std::sin(theta), c = std::cos(theta);
-    const float e = c >= 0.f ? kFrontExponent : kBackExponent;
-    const float x = key.half_width * std::copysign(std::pow(std::abs(s), e), s);
+    const float e = c >= 0.f ? FrontExponent(key.y) : kBackExponent;
+    // Jaw edge: below the jaw line the sides of the face step in towards the neck.
+    const float lateral = Smoothstep(0.2f, 0.8f, std::abs(theta)) * (1.f - Smoothstep(1.0f, 1.3f, std::abs(theta)));
+    const float below_jaw = 1.f - Smoothstep(-1.2f, 0.4f, key.y - JawLineY(theta));
+    const float half_width = key.half_width * (1.f - 0.08f * lateral * below_jaw);
+    const float x = half_width * std::copysign(std::pow(std::abs(s), e), s);
     float z = (c >= 0.f ? key.front_depth : -key.back_depth) * std::pow(std::abs(c), e);
     const float frontness = Smoothstep(0.05f, 0.55f, c);
     if (frontness > 0.f) {
@@ -513,14 +537,21 @@ class HeadBuilder {
 
   const HeadSurface& Surface() const { return surface_; }
   const Layout& GetLayout() const { return layout_; }
-  float ColumnTheta(int j) const { return column_theta_[((j % layout_.cols) + layout_.cols) % layout_.cols]; }
+  // Column angle of grid vertex (i, j): the eye-row layout above the nose, the mouth-row layout
+  // below it, blended in between, so that eye and mouth features never share columns.
+  float ColumnTheta(int i, int j) const {
+    j = ((j % layout_.cols) + layout_.cols) % layout_.cols;
+    if (j == 0) return kPi;
+    return Lerp(eye_column_theta_[j], mouth_column_theta_[j], row_blend_[i]);
+  }
   float RowT(int i) const { return row_t_[i]; }
   float ThetaEyeInner() const { return theta_eye_inner_; }
   float ThetaEyeOuter() const { return theta_eye_outer_; }
 
   // Fraction across eye `side` of column j: 0 at the inner corner, 1 at the outer corner.
   float EyeFraction(int j) const {
-    const float th = std::abs(ColumnTheta(j));
+    j = ((j % layout_.cols) + layout_.cols) % layout_.cols;
+    const float th = j == 0 ? kPi : std::abs(eye_column_theta_[j]);
     return (th - theta_eye_inner_) / (theta_eye_outer_ - theta_eye_inner_);
   }
   // Upper and lower lid openings (cm above / below the slit) at fraction u.
@@ -535,7 +566,7 @@ class HeadBuilder {
 
   // Skin vertex at grid (i, j); `below` marks the lower margin copy on a slit row.
   Eigen::Vector3f SkinVertex(int i, int j, bool below, const LidState lids[2]) const {
-    const float theta = ColumnTheta(j);
+    const float theta = ColumnTheta(i, j);
     float t = row_t_[i];
     // Eyelid warp: rows move away from the eye slit.
     const int side = theta >= 0.f ? 0 : 1;
@@ -687,33 +718,48 @@ class HeadBuilder {
     const HeadParams& p = hs.Params();
     theta_eye_inner_ = hs.ThetaAtX(p.eye_half_spacing - p.eye_half_width, hs.EyeKey());
     theta_eye_outer_ = hs.ThetaAtX(p.eye_half_spacing + p.eye_half_width, hs.EyeKey());
-    const float theta_mouth = hs.ThetaAtX(p.mouth_half_width, hs.MouthKey());
-    const float t_eye = hs.EyeKey(), t_mouth = hs.MouthKey();
+    const float theta_mouth = std::min(hs.ThetaAtX(p.mouth_half_width, hs.MouthKey()),
+                                       theta_eye_outer_ - 0.05f);
+    const std::vector<int>& n = layout_.col_segments;
+    // Eye rows: knots at the eye corners, arc length along the eye row.
+    eye_column_theta_ = Side(hs.EyeKey(), {0.f, theta_eye_inner_, theta_eye_outer_, 0.5f * kPi, kPi},
+                             {n[0], n[1] + n[2], n[3], n[4]});
+    // Mouth rows: knots at the mouth corners, arc length along the mouth row.
+    mouth_column_theta_ = Side(hs.MouthKey(), {0.f, theta_mouth, theta_eye_outer_, 0.5f * kPi, kPi},
+                               {n[0] + n[1], n[2], n[3], n[4]});
+    row_blend_.resize(layout_.rows);
+    for (int i = 0; i < layout_.rows; ++i) {
+      const float y = hs.Profile(row_t_[i]).y;
+      row_blend_[i] = Smoothstep(hs.EyeY() - 1.7f, hs.MouthY() + 1.3f, y);
+    }
+  }
+
+  // Full ring of column angles (index j) from one side's knots and segment counts.
+  std::vector<float> Side(int key, const std::vector<float>& knots, const std::vector<int>& counts) const {
+    const HeadSurface& hs = surface_;
+    const float t = static_cast<float>(key);
     auto measure = [&](float a0, float a1) {
-      return (hs.Position(a1, t_eye) - hs.Position(a0, t_eye)).norm() +
-             (hs.Position(a1, t_mouth) - hs.Position(a0, t_mouth)).norm();
+      return (hs.Position(a1, t) - hs.Position(a0, t)).norm();
     };
-    const float knots[6] = {0.f, theta_eye_inner_, std::max(theta_mouth, theta_eye_inner_ + 0.01f),
-                            theta_eye_outer_, 0.5f * kPi, kPi};
     std::vector<float> side = {0.f};
-    for (int seg = 0; seg < 5; ++seg) {
-      const std::vector<float> ts =
-          ArcLengthPlace(knots[seg], knots[seg + 1], layout_.col_segments[seg], false, measure);
+    for (size_t seg = 0; seg + 1 < knots.size(); ++seg) {
+      const std::vector<float> ts = ArcLengthPlace(knots[seg], knots[seg + 1], counts[seg], false, measure);
       side.insert(side.end(), ts.begin(), ts.end());
     }
-    // side[k] is the angle of column offset k, k = 0..H.
-    column_theta_.assign(layout_.cols, 0.f);
+    std::vector<float> ring(layout_.cols, 0.f);
     for (int k = 0; k <= layout_.half_cols; ++k) {
-      column_theta_[layout_.Column(0, k) % layout_.cols] = side[k];
-      if (k > 0 && k < layout_.half_cols) column_theta_[layout_.Column(1, k)] = -side[k];
+      ring[layout_.Column(0, k) % layout_.cols] = side[k];
+      if (k > 0 && k < layout_.half_cols) ring[layout_.Column(1, k)] = -side[k];
     }
-    column_theta_[0] = kPi;
+    ring[0] = kPi;
+    return ring;
   }
 
   HeadSurface surface_;
   Layout layout_;
   std::vector<float> row_t_;
-  std::vector<float> column_theta_;
+  std::vector<float> eye_column_theta_, mouth_column_theta_;  // per column j
+  std::vector<float> row_blend_;                              // 0: eye layout, 1: mouth layout
   float theta_eye_inner_ = 0.f, theta_eye_outer_ = 0.f;
 };
 
@@ -744,15 +790,6 @@ std::vector<Region> MakeRegions() {
       {"lower_lip", {0.60f, 0.00f, 0.00f}},
       {"mouth_interior", {0.15f, 0.00f, 0.38f}},
   };
-}
-
-// Height of the jaw line (face above, neck below) at column angle theta.
-float JawLineY(const HeadSurface& hs, float theta) {
-  const float deg = std::abs(theta) * 180.f / kPi;
-  const float ye = hs.EyeY(), yc = hs.ChinY();
-  return Table({{0.f, yc}, {18.f, yc + 0.3f}, {40.f, ye - 8.2f}, {58.f, ye - 7.4f},
-                {75.f, ye - 4.8f}, {90.f, ye - 3.4f}, {110.f, ye - 6.0f}, {180.f, ye - 7.0f}},
-               deg);
 }
 
 // Height of the hairline at column angle theta.
@@ -815,8 +852,8 @@ MeshTopology MakeTopology(const HeadBuilder& builder, const Vertices& neutral) {
   // Region of a skin quad (rows i, i+1; columns j, j+1) from its neutral centre.
   auto skin_region = [&](int i, int j, const Eigen::Vector3f& centre) {
     const float x = centre.x(), y = centre.y();
-    const float theta_a = builder.ColumnTheta(j);
-    const float theta_b = j + 1 == l.cols ? kPi : builder.ColumnTheta(j + 1);
+    const float theta_a = builder.ColumnTheta(i, j);
+    const float theta_b = j + 1 == l.cols ? kPi : builder.ColumnTheta(i, j + 1);
     const float theta = 0.5f * (theta_a + theta_b);
     for (int side = 0; side < 2; ++side) {
       if (j >= l.EyeLo(side) && j < l.EyeHi(side)) {
@@ -850,7 +887,7 @@ MeshTopology MakeTopology(const HeadBuilder& builder, const Vertices& neutral) {
         hs.NoseHeight(x, y) > 0.32f) {
       return kNose;
     }
-    if (y < JawLineY(hs, theta)) return kNeck;
+    if (y < hs.JawLineY(theta)) return kNeck;
     if (y > HairLineY(hs, theta)) return kHair;
     return kSkin;
   };
@@ -968,3 +1005,591 @@ MeshTopology MakeTopology(const HeadBuilder& builder, const Vertices& neutral) {
   for (int k = 0; k < static_cast<int>(uvs.size()); ++k) out.uvs.row(k) = uvs[k].transpose();
   return out;
 }
+
+// ---- per-vertex facts ------------------------------------------------------------------------
+
+enum class Part { kSkin, kEyePocket, kMouthPocket, kEyeball };
+
+struct VertexFacts {
+  Part part = Part::kSkin;
+  int eye = -1;             // 0: left eye (+x), 1: right eye (-x), for eye parts
+  bool below_mouth = false; // skin below the lip slit (lower margin included), lower cavity half
+  float pocket_depth = 0.f; // 0 at the opening, 1 at the back of the mouth cavity
+  int loop_index = -1;      // for mouth cavity vertices: index into the mouth loop
+};
+
+std::vector<VertexFacts> MakeFacts(const Layout& l) {
+  std::vector<VertexFacts> facts(l.num_vertices);
+  for (int i = 0; i < l.rows; ++i) {
+    for (int j = 0; j < l.cols; ++j) facts[l.Grid(i, j)].below_mouth = i > l.row_mouth;
+  }
+  facts[l.bottom_pole].below_mouth = true;
+  for (int k = 0; k < l.mouth_dup_count; ++k) facts[l.mouth_dup_begin + k].below_mouth = true;
+  for (int side = 0; side < 2; ++side) {
+    for (int k = 0; k < l.eye_dup_count; ++k) facts[l.eye_dup_begin[side] + k].below_mouth = false;
+    for (int k = 0; k <= l.eye_loop; ++k) {
+      facts[l.eye_pocket_begin[side] + k].part = Part::kEyePocket;
+      facts[l.eye_pocket_begin[side] + k].eye = side;
+    }
+    for (int k = 0; k < l.eyeball_count; ++k) {
+      facts[l.eyeball_begin[side] + k].part = Part::kEyeball;
+      facts[l.eyeball_begin[side] + k].eye = side;
+    }
+  }
+  for (int r = 0; r < l.mouth_rings; ++r) {
+    for (int k = 0; k < l.mouth_loop; ++k) {
+      VertexFacts& f = facts[l.mouth_pocket_begin + r * l.mouth_loop + k];
+      f.part = Part::kMouthPocket;
+      f.below_mouth = k > l.mouth_dup_count + 1;
+      f.pocket_depth = static_cast<float>(r + 1) / (l.mouth_rings + 1);
+      f.loop_index = k;
+    }
+  }
+  VertexFacts& centre = facts[l.mouth_pocket_begin + l.mouth_rings * l.mouth_loop];
+  centre.part = Part::kMouthPocket;
+  centre.pocket_depth = 1.f;
+  return facts;
+}
+
+// Rz * Ry * Rx from Euler angles (x, y, z), radians (the convention of rig/pose.h).
+Eigen::Matrix3f EulerXyz(const Eigen::Vector3f& e) {
+  return (Eigen::AngleAxisf(e.z(), Eigen::Vector3f::UnitZ()) *
+          Eigen::AngleAxisf(e.y(), Eigen::Vector3f::UnitY()) *
+          Eigen::AngleAxisf(e.x(), Eigen::Vector3f::UnitX()))
+      .toRotationMatrix();
+}
+
+// Jaw skinning weight M of a skin vertex (paper 000 Sec. 6): 1 on the chin, lower lip and lower
+// jaw, 0 on the skull, upper lip and nose, a smooth ramp between that rises towards the jaw
+// joint beside the mouth, and a jump across the lip slit.
+float SkinJawWeight(const HeadSurface& hs, const Eigen::Vector3f& p, bool below_mouth,
+                    const Eigen::Vector3f& pivot) {
+  const float mhw = hs.Params().mouth_half_width;
+  const float ax = std::abs(p.x());
+  const float y_ref = hs.MouthY() + (pivot.y() - hs.MouthY()) * Smoothstep(mhw, 7.5f, ax);
+  const float d = p.y() - y_ref;
+  const float c2 = Square(std::min(1.f, ax / mhw));
+  const float width = Lerp(1.3f, 2.5f, Smoothstep(mhw, 6.f, ax));
+  float m;
+  if (below_mouth || d < 0.f) {
+    m = 1.f - 0.5f * c2 * (1.f - Smoothstep(0.f, width, -d));
+  } else {
+    m = 0.5f * c2 * (1.f - Smoothstep(0.f, width, d));
+  }
+  m *= Smoothstep(hs.ChinY() - 3.5f, hs.ChinY() - 0.3f, p.y());  // the neck stays
+  m *= Smoothstep(pivot.z() - 0.5f, pivot.z() + 3.5f, p.z());     // behind the joint stays
+  return Clamp01(m);
+}
+
+Eigen::Vector3f JawPivot(const HeadSurface& hs) {
+  return Eigen::Vector3f(0.f, hs.EyeY() - 2.8f, 1.0f);
+}
+
+Eigen::VectorXf MakeJawWeights(const HeadSurface& hs, const Layout& l, const Vertices& neutral,
+                               const std::vector<VertexFacts>& facts) {
+  const Eigen::Vector3f pivot = JawPivot(hs);
+  Eigen::VectorXf m = Eigen::VectorXf::Zero(l.num_vertices);
+  for (int v = 0; v < l.num_vertices; ++v) {
+    if (facts[v].part == Part::kSkin) {
+      m(v) = SkinJawWeight(hs, neutral.row(v).transpose(), facts[v].below_mouth, pivot);
+    }
+  }
+  const std::vector<int> loop = l.Loop(l.MouthLo(), l.MouthHi(), l.row_mouth);
+  for (int r = 0; r < l.mouth_rings; ++r) {
+    for (int k = 0; k < l.mouth_loop; ++k) m(l.mouth_pocket_begin + r * l.mouth_loop + k) = m(loop[k]);
+  }
+  m(l.mouth_pocket_begin + l.mouth_rings * l.mouth_loop) = 0.5f;
+  return m;
+}
+
+// ---- landmarks -------------------------------------------------------------------------------
+
+Eigen::VectorXi MakeLandmarks(const HeadBuilder& b, const Vertices& n) {
+  const Layout& l = b.GetLayout();
+  const HeadSurface& hs = b.Surface();
+  const HeadParams& p = hs.Params();
+  Eigen::VectorXi lm(68);
+  // Nearest original grid vertex on the front of the face to (x, y), rows in [r0, r1].
+  auto nearest = [&](float x, float y, int r0, int r1) {
+    int best = -1;
+    float best_d = std::numeric_limits<float>::infinity();
+    for (int i = std::max(0, r0); i <= std::min(l.rows - 1, r1); ++i) {
+      for (int j = 0; j < l.cols; ++j) {
+        if (std::cos(b.ColumnTheta(i, j)) < 0.3f) continue;
+        const int v = l.Grid(i, j);
+        const float d = Square(n(v, 0) - x) + Square(n(v, 1) - y);
+        if (d < best_d) { best_d = d; best = v; }
+      }
+    }
+    return best;
+  };
+  // Jaw contour 0-16: even arc-length samples of the jaw line from the right ear to the left.
+  {
+    std::vector<Eigen::Vector3f> curve;
+    std::vector<float> length = {0.f};
+    for (int k = 0; k <= 352; ++k) {
+      const float theta = (-88.f + 0.5f * k) * kPi / 180.f;
+      const float t = hs.ParameterAtHeight(hs.JawLineY(theta) + 0.15f, 0.f, hs.NumKeys() - 1.f);
+      curve.push_back(hs.Position(theta, t));
+      if (k > 0) length.push_back(length.back() + (curve[k] - curve[k - 1]).norm());
+    }
+    int s = 0;
+    for (int m = 0; m < 17; ++m) {
+      const float target = length.back() * m / 16.f;
+      while (s + 1 < static_cast<int>(length.size()) && length[s] < target) ++s;
+      int best = -1;
+      float best_d = std::numeric_limits<float>::infinity();
+      for (int i = 0; i < l.rows; ++i) {
+        for (int j = 0; j < l.cols; ++j) {
+          const int v = l.Grid(i, j);
+          const float d = (n.row(v).transpose() - curve[s]).squaredNorm();
+          if (d < best_d) { best_d = d; best = v; }
+        }
+      }
+      lm(m) = best;
+    }
+  }
+  // Brows 17-21 (right, outer to inner) and 22-26 (left, inner to outer).
+  const float ex = p.eye_half_spacing;
+  for (int k = 0; k < 5; ++k) {
+    const float ax_right = ex + 1.9f - 0.925f * k;
+    lm(17 + k) = nearest(-ax_right, hs.BrowLineY(ax_right), 0, l.row_eye);
+    const float ax_left = ex - 1.8f + 0.925f * k;
+    lm(22 + k) = nearest(ax_left, hs.BrowLineY(ax_left), 0, l.row_eye);
+  }
+  // Nose bridge 27-29 down the centre column, tip 30 the most forward centre vertex.
+  int tip = l.Grid(0, l.half_cols);
+  for (int i = 0; i < l.rows; ++i) {
+    if (n(l.Grid(i, l.half_cols), 2) > n(tip, 2)) tip = l.Grid(i, l.half_cols);
+  }
+  for (int k = 0; k < 3; ++k) {
+    const float y = Lerp(hs.NasionY() - 0.15f, hs.NoseTipY(), k / 3.f);
+    lm(27 + k) = nearest(0.f, y, 0, l.row_mouth);
+  }
+  lm(30) = tip;
+  // Nose base 31-35, right to left.
+  for (int k = 0; k < 5; ++k) {
+    lm(31 + k) = nearest(-1.0f + 0.5f * k, hs.SubnasaleY() + 0.1f + 0.15f * std::abs(k - 2),
+                         l.row_eye, l.row_mouth - 1);
+  }
+  // Eyes: corners are the slit ends, lid points are margin vertices at 1/3 and 2/3 across.
+  auto eye_column = [&](int side, float u) {
+    int best = l.EyeLo(side) + 1;
+    for (int j = l.EyeLo(side) + 1; j < l.EyeHi(side); ++j) {
+      if (std::abs(b.EyeFraction(j) - u) < std::abs(b.EyeFraction(best) - u)) best = j;
+    }
+    return best;
+  };
+  const int re = l.row_eye;
+  lm(36) = l.Grid(re, l.Column(1, l.k_eye_outer));
+  lm(37) = l.Grid(re, eye_column(1, 2.f / 3.f));
+  lm(38) = l.Grid(re, eye_column(1, 1.f / 3.f));
+  lm(39) = l.Grid(re, l.Column(1, l.k_eye_inner));
+  lm(40) = l.Vertex(re, eye_column(1, 1.f / 3.f), true);
+  lm(41) = l.Vertex(re, eye_column(1, 2.f / 3.f), true);
+  lm(42) = l.Grid(re, l.Column(0, l.k_eye_inner));
+  lm(43) = l.Grid(re, eye_column(0, 1.f / 3.f));
+  lm(44) = l.Grid(re, eye_column(0, 2.f / 3.f));
+  lm(45) = l.Grid(re, l.Column(0, l.k_eye_outer));
+  lm(46) = l.Vertex(re, eye_column(0, 2.f / 3.f), true);
+  lm(47) = l.Vertex(re, eye_column(0, 1.f / 3.f), true);
+  // Lips.
+  const int rm = l.row_mouth;
+  const float mhw = p.mouth_half_width;
+  auto mouth_column = [&](float x) {
+    int best = l.MouthLo() + 1;
+    for (int j = l.MouthLo() + 1; j < l.MouthHi(); ++j) {
+      if (std::abs(n(l.Grid(rm, j), 0) - x) < std::abs(n(l.Grid(rm, best), 0) - x)) best = j;
+    }
+    return best;
+  };
+  lm(48) = l.Grid(rm, l.MouthLo() - 1);
+  lm(54) = l.Grid(rm, l.MouthHi() + 1);
+  const float outer_x[5] = {-0.62f, -0.28f, 0.f, 0.28f, 0.62f};
+  for (int k = 0; k < 5; ++k) {
+    const float xu = outer_x[k] * mhw;
+    lm(49 + k) = nearest(xu, hs.UpperVermilionY(xu), rm - 6, rm - 1);
+    const float xl = -outer_x[k] * mhw;
+    lm(55 + k) = nearest(xl, hs.LowerVermilionY(xl), rm + 1, rm + 6);
+  }
+  lm(60) = l.Grid(rm, l.MouthLo());
+  lm(64) = l.Grid(rm, l.MouthHi());
+  const float inner_x[3] = {-0.45f, 0.f, 0.45f};
+  for (int k = 0; k < 3; ++k) {
+    lm(61 + k) = l.Grid(rm, mouth_column(inner_x[k] * mhw));
+    lm(65 + k) = l.Vertex(rm, mouth_column(-inner_x[k] * mhw), true);
+  }
+  return lm;
+}
+
+// ---- shapes ----------------------------------------------------------------------------------
+
+SparseDelta ToSparse(const Vertices& dense) {
+  SparseDelta d;
+  for (int v = 0; v < dense.rows(); ++v) {
+    const Eigen::Vector3f o = dense.row(v).transpose();
+    if (o.squaredNorm() > 1e-10f) {
+      d.vertex.push_back(v);
+      d.offset.push_back(o);
+    }
+  }
+  return d;
+}
+
+Eigen::Vector3f MirrorX(const Eigen::Vector3f& v) { return Eigen::Vector3f(-v.x(), v.y(), v.z()); }
+
+class ShapeMaker {
+ public:
+  ShapeMaker(const HeadBuilder& builder, const Vertices& neutral, const std::vector<VertexFacts>& facts,
+             const Eigen::VectorXf& jaw_weights, const DemoHeadOptions& options)
+      : b_(builder), hs_(builder.Surface()), l_(builder.GetLayout()), n_(neutral), facts_(facts),
+        jaw_weights_(jaw_weights), options_(options) {
+    left_corner_ = n_.row(l_.Grid(l_.row_mouth, l_.MouthHi())).transpose();
+  }
+
+  std::vector<Shape> MakeAll() const {
+    std::vector<Shape> shapes;
+    for (const std::string& name : ArkitShapeNames()) shapes.push_back(Make(name));
+    return shapes;
+  }
+
+ private:
+  using Field = std::function<Eigen::Vector3f(const Eigen::Vector3f&, const VertexFacts&)>;
+
+  // Dense delta of a displacement field over the skin and the mouth cavity (attenuated with
+  // depth). `mirror` evaluates the field for the subject's right side.
+  Vertices FieldDelta(const Field& f, bool mirror) const {
+    Vertices d = Vertices::Zero(l_.num_vertices, 3);
+    for (int v = 0; v < l_.num_vertices; ++v) {
+      const VertexFacts& fact = facts_[v];
+      if (fact.part == Part::kEyeball || fact.part == Part::kEyePocket) continue;
+      const Eigen::Vector3f p = n_.row(v).transpose();
+      Eigen::Vector3f o = mirror ? MirrorX(f(MirrorX(p), fact)) : f(p, fact);
+      if (fact.part == Part::kMouthPocket) o *= Square(1.f - fact.pocket_depth);
+      d.row(v) = o.transpose();
+    }
+    return d;
+  }
+
+  Vertices LidDelta(int side, const LidState& lid, const Eigen::Matrix3f& eye_rotation) const {
+    LidState lids[2];
+    EyeballRotation eyes[2];
+    lids[side] = lid;
+    eyes[side].rotation = eye_rotation;
+    Vertices d = b_.Build(lids, eyes) - n_;
+    // Only the lids of this eye and its eyeball move; clean the round-off elsewhere.
+    for (int v = 0; v < l_.num_vertices; ++v) {
+      if (d.row(v).squaredNorm() < 1e-12f) d.row(v).setZero();
+    }
+    return d;
+  }
+
+  float Front(const Eigen::Vector3f& p) const { return Smoothstep(0.f, 3.f, p.z()); }
+  float Mhw() const { return hs_.Params().mouth_half_width; }
+  // Weight around the left mouth corner with radius r.
+  float CornerWeight(const Eigen::Vector3f& p, float r) const {
+    return Gauss((p.head<2>() - left_corner_.head<2>()).norm() / r) * Front(p);
+  }
+  float LipWeight(const Eigen::Vector3f& p, float vertical = 1.1f) const {
+    return (1.f - Smoothstep(0.6f * Mhw(), 1.35f * Mhw(), std::abs(p.x()))) *
+           Gauss((p.y() - hs_.MouthY()) / vertical) * Front(p);
+  }
+  static float LeftSide(const Eigen::Vector3f& p) { return Smoothstep(-0.8f, 0.8f, p.x()); }
+  float BrowWeight(const Eigen::Vector3f& p, float centre_offset, float width) const {
+    const float ex = hs_.Params().eye_half_spacing;
+    return Gauss((p.x() - ex - centre_offset) / width) *
+           Gauss((p.y() - hs_.BrowLineY(std::abs(p.x())) - 0.2f) / 1.3f) * Front(p);
+  }
+
+  Shape Make(const std::string& name) const {
+    Shape s;
+    s.name = name;
+    const bool right = name.size() > 5 && name.compare(name.size() - 5, 5, "Right") == 0;
+    const std::string base = right ? name.substr(0, name.size() - 5)
+                                   : (name.size() > 4 && name.compare(name.size() - 4, 4, "Left") == 0
+                                          ? name.substr(0, name.size() - 4)
+                                          : name);
+    const int side = right ? 1 : 0;
+    const float look = options_.eye_look_degrees * kPi / 180.f;
+    const Eigen::Matrix3f identity = Eigen::Matrix3f::Identity();
+    // Eyes.
+    if (base == "eyeBlink") {
+      s.delta = ToSparse(LidDelta(side, {1.f, 1.f, 1.f}, identity));
+    } else if (base == "eyeSquint") {
+      Vertices d = LidDelta(side, {0.78f, 0.45f, 0.f}, identity);
+      d += FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+             const float ex = hs_.Params().eye_half_spacing;
+             return Eigen::Vector3f(0.f, 0.18f, 0.08f) * Gauss((p.x() - ex) / 1.5f) *
+                    Gauss((p.y() - hs_.EyeY() + 1.9f) / 0.9f) * Front(p);
+           }, right);
+      s.delta = ToSparse(d);
+    } else if (base == "eyeWide") {
+      s.delta = ToSparse(LidDelta(side, {1.45f, 1.12f, 0.f}, identity));
+    } else if (base == "eyeLookUp") {
+      s.delta = ToSparse(LidDelta(side, {1.2f, 0.95f, 0.f},
+                                  EulerXyz(Eigen::Vector3f(-0.8f * look, 0.f, 0.f))));
+    } else if (base == "eyeLookDown") {
+      s.delta = ToSparse(LidDelta(side, {0.55f, 1.1f, 0.f},
+                                  EulerXyz(Eigen::Vector3f(0.8f * look, 0.f, 0.f))));
+    } else if (base == "eyeLookIn" || base == "eyeLookOut") {
+      // In turns the gaze towards the nose: -x for the left eye, +x for the right eye.
+      const float sign = (base == "eyeLookIn" ? -1.f : 1.f) * (right ? -1.f : 1.f);
+      s.delta = ToSparse(LidDelta(side, {1.f, 1.f, 0.f},
+                                  EulerXyz(Eigen::Vector3f(0.f, sign * look, 0.f))));
+    }
+    // Jaw: skinning only (R_i, T_i), no de-skinned delta.
+    else if (name == "jawOpen") {
+      s.jaw_euler = Eigen::Vector3f(options_.jaw_open_degrees * kPi / 180.f, 0.f, 0.f);
+      s.jaw_translation = Eigen::Vector3f(0.f, 0.f, 0.15f);
+    } else if (name == "jawForward") {
+      s.jaw_translation = Eigen::Vector3f(0.f, 0.f, 0.9f);
+    } else if (name == "jawLeft" || name == "jawRight") {
+      const float sign = name == "jawLeft" ? 1.f : -1.f;
+      s.jaw_euler = Eigen::Vector3f(0.f, sign * 0.1f, 0.f);
+      s.jaw_translation = Eigen::Vector3f(sign * 0.35f, 0.f, 0.f);
+    } else if (name == "mouthClose") {
+      // Undo the jawOpen rotation on the lower lip (de-skinned), so that jawOpen + mouthClose
+      // keeps the lips together: D = f (R^T (N - pivot - T) + pivot - N).
+      const Eigen::Matrix3f r = EulerXyz(Eigen::Vector3f(options_.jaw_open_degrees * kPi / 180.f, 0, 0));
+      const Eigen::Vector3f t(0.f, 0.f, 0.15f);
+      const Eigen::Vector3f pivot = JawPivot(hs_);
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts& f) -> Eigen::Vector3f {
+        if (!f.below_mouth) {
+          return Eigen::Vector3f(0.f, -0.08f, 0.f) * LipWeight(p, 0.8f);
+        }
+        const float w = LipWeight(p, 1.4f) / std::max(1e-3f, LipWeight(Eigen::Vector3f(p.x(), hs_.MouthY(), p.z())));
+        const Eigen::Vector3f back = r.transpose() * (p - pivot - t) + pivot - p;
+        return Eigen::Vector3f(back * std::min(1.f, w) * (1.f - Smoothstep(0.8f * Mhw(), 1.3f * Mhw(), std::abs(p.x()))));
+      }, false));
+    } else if (name == "mouthFunnel") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts& f) -> Eigen::Vector3f {
+        const float w = LipWeight(p, 0.9f);
+        return Eigen::Vector3f(-0.25f * p.x(), f.below_mouth ? -0.35f : 0.25f, 0.75f) * w;
+      }, false));
+    } else if (name == "mouthPucker") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts& f) -> Eigen::Vector3f {
+        const float w = LipWeight(p, 1.0f);
+        return Eigen::Vector3f(-0.42f * p.x(), f.below_mouth ? 0.05f : -0.05f, 0.9f) * w;
+      }, false));
+    } else if (name == "mouthLeft" || name == "mouthRight") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+        return Eigen::Vector3f(0.9f, 0.f, -0.15f * p.x() / Mhw()) * Gauss(p.x() / 3.2f) *
+               Gauss((p.y() - hs_.MouthY()) / 1.7f) * Front(p);
+      }, name == "mouthRight"));
+    } else if (base == "mouthSmile") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+        const float ex = hs_.Params().eye_half_spacing;
+        const Eigen::Vector3f corner = Eigen::Vector3f(0.5f, 0.8f, -0.45f) * CornerWeight(p, 1.7f);
+        const Eigen::Vector3f cheek = Eigen::Vector3f(0.1f, 0.35f, 0.25f) *
+                                      Gauss((p.x() - ex - 0.3f) / 1.4f) *
+                                      Gauss((p.y() - hs_.MouthY() - 3.2f) / 1.4f) * Front(p);
+        return Eigen::Vector3f(corner + cheek);
+      }, right));
+    } else if (base == "mouthFrown") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+        return Eigen::Vector3f(Eigen::Vector3f(0.12f, -0.7f, -0.1f) * CornerWeight(p, 1.5f));
+      }, right));
+    } else if (base == "mouthDimple") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+        return Eigen::Vector3f(Eigen::Vector3f(0.25f, 0.05f, -0.45f) * CornerWeight(p, 1.1f));
+      }, right));
+    } else if (base == "mouthStretch") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+        return Eigen::Vector3f(Eigen::Vector3f(0.7f, -0.3f, -0.2f) * CornerWeight(p, 2.0f));
+      }, right));
+    } else if (base == "mouthPress") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts& f) -> Eigen::Vector3f {
+        const float w = LipWeight(p, 0.8f) * LeftSide(p);
+        return Eigen::Vector3f(0.f, f.below_mouth ? 0.15f : -0.12f, -0.18f) * w;
+      }, right));
+    } else if (base == "mouthLowerDown") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts& f) -> Eigen::Vector3f {
+        if (!f.below_mouth) return Eigen::Vector3f::Zero().eval();
+        const float w = LipWeight(p, 1.3f) * LeftSide(p);
+        return Eigen::Vector3f(0.f, -0.6f, 0.1f) * w;
+      }, right));
+    } else if (base == "mouthUpperUp") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts& f) -> Eigen::Vector3f {
+        if (f.below_mouth) return Eigen::Vector3f::Zero().eval();
+        const float w = LipWeight(p, 1.2f) * LeftSide(p);
+        return Eigen::Vector3f(0.f, 0.55f, 0.1f) * w;
+      }, right));
+    } else if (name == "mouthRollLower" || name == "mouthRollUpper") {
+      const bool lower = name == "mouthRollLower";
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts& f) -> Eigen::Vector3f {
+        if (f.below_mouth != lower) return Eigen::Vector3f::Zero().eval();
+        const float w = LipWeight(p, 0.8f);
+        return Eigen::Vector3f(0.f, lower ? 0.2f : -0.2f, -0.4f) * w;
+      }, false));
+    } else if (name == "mouthShrugLower") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts& f) -> Eigen::Vector3f {
+        if (!f.below_mouth) return Eigen::Vector3f::Zero().eval();
+        return Eigen::Vector3f(0.f, 0.35f, 0.2f) * Gauss(p.x() / 2.5f) *
+               Gauss((p.y() - hs_.MouthY() + 1.5f) / 1.8f) * Front(p);
+      }, false));
+    } else if (name == "mouthShrugUpper") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts& f) -> Eigen::Vector3f {
+        if (f.below_mouth) return Eigen::Vector3f::Zero().eval();
+        return Eigen::Vector3f(0.f, 0.3f, 0.15f) * Gauss(p.x() / 2.5f) *
+               Gauss((p.y() - hs_.MouthY() - 0.5f) / 0.9f) * Front(p);
+      }, false));
+    }
+    // Brows.
+    else if (base == "browDown") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+        return Eigen::Vector3f(-0.12f, -0.45f, 0.06f) * BrowWeight(p, -0.4f, 1.8f);
+      }, right));
+    } else if (name == "browInnerUp") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+        const Eigen::Vector3f q(std::abs(p.x()), p.y(), p.z());
+        return Eigen::Vector3f(0.f, 0.6f, 0.f) * BrowWeight(q, -1.3f, 1.2f);
+      }, false));
+    } else if (base == "browOuterUp") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+        return Eigen::Vector3f(0.f, 0.55f, 0.f) * BrowWeight(p, 1.3f, 1.3f);
+      }, right));
+    }
+    // Cheeks and nose.
+    else if (name == "cheekPuff") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+        const float w = Gauss((std::abs(p.x()) - 4.0f) / 1.6f) *
+                        Gauss((p.y() - hs_.MouthY() - 1.0f) / 1.8f) * Front(p);
+        return Eigen::Vector3f(std::copysign(0.8f, p.x()), 0.f, 0.35f) * w;
+      }, false));
+    } else if (base == "cheekSquint") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+        const float ex = hs_.Params().eye_half_spacing;
+        return Eigen::Vector3f(0.f, 0.35f, 0.15f) * Gauss((p.x() - ex) / 1.6f) *
+               Gauss((p.y() - hs_.EyeY() + 1.9f) / 1.0f) * Front(p);
+      }, right));
+    } else if (base == "noseSneer") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
+        return Eigen::Vector3f(0.05f, 0.35f, 0.05f) * Gauss((p.x() - 1.15f) / 0.75f) *
+               Gauss((p.y() - hs_.SubnasaleY() - 0.7f) / 1.0f) * Front(p);
+      }, right));
+    } else if (name == "tongueOut") {
+      s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts& f) -> Eigen::Vector3f {
+        if (!f.below_mouth) return Eigen::Vector3f::Zero().eval();
+        if (f.part == Part::kMouthPocket) {
+          if (f.pocket_depth >= 1.f) return Eigen::Vector3f::Zero();
+          // Undo the depth attenuation so the cavity floor comes forward as a tongue.
+          return Eigen::Vector3f(Eigen::Vector3f(0.f, 0.1f, 1.6f) * Gauss(p.x() / 1.3f) /
+                                 Square(1.f - f.pocket_depth));
+        }
+        return Eigen::Vector3f(0.f, -0.25f, 0.5f) * Gauss(p.x() / 1.3f) *
+               Gauss((p.y() - hs_.MouthY() + 0.45f) / 0.7f) * Front(p);
+      }, false));
+    }
+    return s;
+  }
+
+  const HeadBuilder& b_;
+  const HeadSurface& hs_;
+  const Layout& l_;
+  const Vertices& n_;
+  const std::vector<VertexFacts>& facts_;
+  const Eigen::VectorXf& jaw_weights_;
+  const DemoHeadOptions& options_;
+  Eigen::Vector3f left_corner_;
+};
+
+}  // namespace
+
+// ---- public API ------------------------------------------------------------------------------
+
+bool DemoHeadOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& message) {
+    if (why) *why = message;
+    return false;
+  };
+  if (resolution < 60 || resolution > 300) {
+    return fail("resolution must be in [60, 300], got " + std::to_string(resolution));
+  }
+  if (num_identity_modes < 0 || num_identity_modes > MaxDemoIdentityModes()) {
+    return fail("num_identity_modes must be in [0, " + std::to_string(MaxDemoIdentityModes()) +
+                "], got " + std::to_string(num_identity_modes));
+  }
+  if (eyeball_segments < 8 || eyeball_segments > 64) {
+    return fail("eyeball_segments must be in [8, 64], got " + std::to_string(eyeball_segments));
+  }
+  if (!(jaw_open_degrees > 0.f && jaw_open_degrees <= 40.f)) {
+    return fail("jaw_open_degrees must be in (0, 40], got " + std::to_string(jaw_open_degrees));
+  }
+  if (!(eye_look_degrees > 0.f && eye_look_degrees <= 45.f)) {
+    return fail("eye_look_degrees must be in (0, 45], got " + std::to_string(eye_look_degrees));
+  }
+  if (!(identity_mode_scale > 0.f && identity_mode_scale <= 3.f)) {
+    return fail("identity_mode_scale must be in (0, 3], got " + std::to_string(identity_mode_scale));
+  }
+  return true;
+}
+
+int MaxDemoIdentityModes() { return static_cast<int>(IdentityModeDefs().size()); }
+
+const std::vector<std::string>& DemoIdentityModeNames() {
+  static const std::vector<std::string> kNames = [] {
+    std::vector<std::string> names;
+    for (const IdentityModeDef& def : IdentityModeDefs()) names.push_back(def.name);
+    return names;
+  }();
+  return kNames;
+}
+
+Rig MakeDemoHead(const DemoHeadOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw std::invalid_argument("DemoHeadOptions: " + why);
+  const Layout layout = MakeLayout(options);
+  const HeadParams mean;
+  const HeadBuilder builder(mean, layout);
+
+  Rig rig;
+  rig.neutral = builder.BuildNeutral();
+  MeshTopology topology = MakeTopology(builder, rig.neutral);
+  rig.triangles = std::move(topology.triangles);
+  rig.uvs = std::move(topology.uvs);
+  rig.uv_triangles = std::move(topology.uv_triangles);
+  rig.triangle_region = std::move(topology.triangle_region);
+  rig.regions = MakeRegions();
+  const std::vector<VertexFacts> facts = MakeFacts(layout);
+  rig.jaw_pivot = JawPivot(builder.Surface());
+  rig.jaw_weights = MakeJawWeights(builder.Surface(), layout, rig.neutral, facts);
+  rig.landmarks = MakeLandmarks(builder, rig.neutral);
+  rig.shapes = ShapeMaker(builder, rig.neutral, facts, rig.jaw_weights, options).MakeAll();
+
+  // Identity modes: finite differences of the builder, one standard deviation per parameter.
+  const std::vector<IdentityModeDef>& defs = IdentityModeDefs();
+  rig.identity_modes.assign(options.num_identity_modes, Vertices());
+#pragma omp parallel for schedule(dynamic)
+  for (int k = 0; k < options.num_identity_modes; ++k) {
+    HeadParams varied = mean;
+    varied.*(defs[k].member) += options.identity_mode_scale * defs[k].std_dev;
+    rig.identity_modes[k] = HeadBuilder(varied, layout).BuildNeutral() - rig.neutral;
+  }
+  return rig;
+}
+
+std::vector<float> DemoIdentityCoefficients(int identity_seed, int num_modes) {
+  std::vector<float> alpha(std::max(0, num_modes), 0.f);
+  if (identity_seed == 0) return alpha;
+  std::mt19937 generator(static_cast<std::uint32_t>(identity_seed));
+  for (int k = 0; k < num_modes; ++k) {
+    // Box-Muller on two 32-bit draws; u1 in (0, 1] so the logarithm is finite.
+    const double u1 = (static_cast<double>(generator()) + 1.0) / 4294967296.0;
+    const double u2 = static_cast<double>(generator()) / 4294967296.0;
+    const double normal = std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * 3.14159265358979323846 * u2);
+    alpha[k] = static_cast<float>(std::min(2.5, std::max(-2.5, normal)));
+  }
+  return alpha;
+}
+
+Rig WithIdentity(const Rig& rig, int identity_seed, float magnitude) {
+  Rig out = rig;
+  const std::vector<float> alpha =
+      DemoIdentityCoefficients(identity_seed, static_cast<int>(rig.identity_modes.size()));
+  for (size_t k = 0; k < alpha.size(); ++k) {
+    if (alpha[k] != 0.f) out.neutral += (magnitude * alpha[k]) * rig.identity_modes[k];
+  }
+  return out;
+}
+
+}  // namespace facecap::rig

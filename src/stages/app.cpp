@@ -31,6 +31,7 @@ int RunApp(int argc, char** argv) {
   RegisterRig(&app, &state);
   RegisterRender(&app, &state);
   RegisterSynth(&app, &state);
+  RegisterIngest(&app, &state);
   RegisterRun(&app, &state);
 
   int code = kExitOk;

@@ -94,18 +94,26 @@ void AddStageFlags(CLI::App* sub, const std::string& table, StageFlags* flags) {
   defaults.Visit([&](const char* key, auto& field, const char* help) {
     const std::string k = key;
     using Field = std::decay_t<decltype(field)>;
-    auto* option = sub->add_option_function<std::string>(
-        FlagName(k),
-        [flags, k](const std::string& text) { flags->overrides[k] = FlagTextToToml<Field>(text); },
-        std::string(help) + " (default: " + DefaultText(field) + ")");
+    const std::string description = std::string(help) + " (default: " + DefaultText(field) + ")";
     if constexpr (std::is_same_v<Field, bool>) {
-      option->type_name("BOOL");
-    } else if constexpr (std::is_arithmetic_v<Field>) {
-      option->type_name(std::is_integral_v<Field> ? "INT" : "FLOAT");
-    } else if constexpr (std::is_same_v<Field, std::string>) {
-      option->type_name("TEXT");
+      // --name sets true, --no-name sets false.
+      sub->add_flag_function(
+          FlagName(k) + ",!--no-" + FlagName(k).substr(2),
+          [flags, k](std::int64_t count) { flags->overrides[k] = count > 0 ? "true" : "false"; },
+          description);
+      return;
     } else {
-      option->type_name("LIST");
+      auto* option = sub->add_option_function<std::string>(
+          FlagName(k),
+          [flags, k](const std::string& text) { flags->overrides[k] = FlagTextToToml<Field>(text); },
+          description);
+      if constexpr (std::is_arithmetic_v<Field>) {
+        option->type_name(std::is_integral_v<Field> ? "INT" : "FLOAT");
+      } else if constexpr (std::is_same_v<Field, std::string>) {
+        option->type_name("TEXT");
+      } else {
+        option->type_name("LIST");
+      }
     }
   });
 }

@@ -71,6 +71,7 @@ void RegisterVersion(CLI::App* app, AppState* state);
 void RegisterRig(CLI::App* app, AppState* state);
 void RegisterRender(CLI::App* app, AppState* state);
 void RegisterSynth(CLI::App* app, AppState* state);
+void RegisterIngest(CLI::App* app, AppState* state);
 void RegisterRun(CLI::App* app, AppState* state);
 
 std::string VersionReport(const dist::Comm& comm);

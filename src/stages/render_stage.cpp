@@ -100,7 +100,7 @@ Framing FrameHead(const rig::Rig& rig, int size, float fov_deg, float pitch, flo
                   float roll) {
   Framing f;
   f.camera = render::Camera::FromFov(size, size, fov_deg);
-  f.pose = render::FramedPose(rig, render::FramingDistance(rig, f.camera), pitch, yaw, roll);
+  f.pose = render::FramedPose(rig, render::FramingDistance(rig, f.camera, 0.55f), pitch, yaw, roll);
   return f;
 }
 

@@ -24,7 +24,7 @@ struct SampleOptions {
   int size = 128;                   // image width and height in pixels
   int seed = 1;                     // dataset seed; sample i draws from (seed, i)
   float fov_deg = 20.f;             // vertical field of view of the camera
-  float fill = 0.86f;               // fraction of the image height the head spans
+  float fill = 0.7f;                // fraction of the image height the face (landmarks) spans
   float pitch_sigma_deg = 5.f;      // sigma of the truncated Gaussian on pitch
   float pitch_limit_deg = 10.f;     // pitch in [-limit, limit]
   float yaw_sigma_deg = 40.f;       // sigma of the truncated Gaussian on yaw
@@ -42,7 +42,7 @@ struct SampleOptions {
     v("size", size, "image width and height in pixels");
     v("seed", seed, "dataset seed; sample i is drawn from (seed, i)");
     v("fov_deg", fov_deg, "vertical field of view of the camera in degrees");
-    v("fill", fill, "fraction of the image height that the head spans");
+    v("fill", fill, "fraction of the image height that the face (its 68 landmarks) spans");
     v("pitch_sigma_deg", pitch_sigma_deg, "sigma of the truncated Gaussian on pitch, degrees");
     v("pitch_limit_deg", pitch_limit_deg, "pitch is truncated to [-limit, limit] degrees");
     v("yaw_sigma_deg", yaw_sigma_deg, "sigma of the truncated Gaussian on yaw, degrees");

@@ -1,0 +1,170 @@
+#include "face/face_analyzer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include <dlib/image_processing.h>
+#include <dlib/image_processing/frontal_face_detector.h>
+#include <dlib/image_transforms.h>
+#include <dlib/opencv.h>
+#include <opencv2/imgproc.hpp>
+
+#include "util/errors.h"
+
+namespace facecap::face {
+
+bool FaceAnalyzerOptions::Check(std::string* why) const {
+  if (landmark_model.empty()) {
+    *why = "landmark_model must name a dlib 68-point shape predictor file";
+    return false;
+  }
+  if (detect_max_side != 0 && detect_max_side < 80) {
+    *why = "detect_max_side must be 0 (full resolution) or >= 80 (the detector window)";
+    return false;
+  }
+  if (detect_upsample < 0 || detect_upsample > 2) {
+    *why = "detect_upsample must be in [0, 2]";
+    return false;
+  }
+  if (!(std::abs(detect_threshold) <= 5.0)) {
+    *why = "detect_threshold must be in [-5, 5]";
+    return false;
+  }
+  return true;
+}
+
+float IntersectionOverUnion(const FaceBox& a, const FaceBox& b) {
+  const float x0 = std::max(a.x, b.x), y0 = std::max(a.y, b.y);
+  const float x1 = std::min(a.x + a.width, b.x + b.width);
+  const float y1 = std::min(a.y + a.height, b.y + b.height);
+  const float inter = std::max(0.f, x1 - x0) * std::max(0.f, y1 - y0);
+  const float uni = a.Area() + b.Area() - inter;
+  return uni > 0.f ? inter / uni : 0.f;
+}
+
+namespace {
+
+// A grayscale cv::Mat of an 8-bit image with 1, 3 or 4 channels (RGB order).
+cv::Mat ToGray(const Image8& image) {
+  if (image.empty() || image.width <= 0 || image.height <= 0) {
+    throw InvalidInputError("face analyzer: empty image");
+  }
+  const int type = CV_8UC(image.channels);
+  cv::Mat view(image.height, image.width, type, const_cast<uint8_t*>(image.data.data()));
+  cv::Mat gray;
+  switch (image.channels) {
+    case 1: gray = view; break;
+    case 3: cv::cvtColor(view, gray, cv::COLOR_RGB2GRAY); break;
+    case 4: cv::cvtColor(view, gray, cv::COLOR_RGBA2GRAY); break;
+    default:
+      throw InvalidInputError("face analyzer: images need 1, 3 or 4 channels, got " +
+                              std::to_string(image.channels));
+  }
+  return gray;
+}
+
+}  // namespace
+
+struct FaceAnalyzer::Impl {
+  FaceAnalyzerOptions options;
+  dlib::frontal_face_detector detector;  // copyable; building one decodes the HOG model
+  std::shared_ptr<const dlib::shape_predictor> predictor;
+};
+
+FaceAnalyzer::FaceAnalyzer(const FaceAnalyzerOptions& options) : impl_(std::make_unique<Impl>()) {
+  std::string why;
+  if (!options.Check(&why)) throw InvalidInputError("face analyzer: " + why);
+  impl_->options = options;
+  const std::string& path = options.landmark_model;
+  if (!std::filesystem::is_regular_file(path)) {
+    throw FileIOError(path + ": landmark model not found (Debian's libdlib-data installs " +
+                      std::string(kDefaultLandmarkModel) + "; set landmark_model)");
+  }
+  auto predictor = std::make_shared<dlib::shape_predictor>();
+  try {
+    dlib::deserialize(path) >> *predictor;
+  } catch (const std::exception& e) {
+    throw FileIOError(path + ": not a dlib shape predictor: " + e.what());
+  }
+  if (predictor->num_parts() != kNumLandmarks) {
+    throw FileIOError(path + ": the shape predictor gives " +
+                      std::to_string(predictor->num_parts()) + " landmarks, expected 68");
+  }
+  impl_->predictor = std::move(predictor);
+  impl_->detector = dlib::get_frontal_face_detector();
+}
+
+FaceAnalyzer::~FaceAnalyzer() = default;
+FaceAnalyzer::FaceAnalyzer(FaceAnalyzer&&) noexcept = default;
+FaceAnalyzer& FaceAnalyzer::operator=(FaceAnalyzer&&) noexcept = default;
+
+FaceAnalyzer::FaceAnalyzer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+std::unique_ptr<FaceAnalyzer> FaceAnalyzer::Clone() const {
+  auto impl = std::make_unique<Impl>();
+  impl->options = impl_->options;
+  impl->predictor = impl_->predictor;  // shared, read-only
+  impl->detector = impl_->detector;
+  return std::unique_ptr<FaceAnalyzer>(new FaceAnalyzer(std::move(impl)));
+}
+
+const FaceAnalyzerOptions& FaceAnalyzer::options() const { return impl_->options; }
+
+std::vector<FaceBox> FaceAnalyzer::Detect(const Image8& image) {
+  const cv::Mat gray = ToGray(image);
+  const int side = std::max(gray.cols, gray.rows);
+  const int max_side = impl_->options.detect_max_side;
+  double scale = 1.0;  // detection pixels per source pixel
+  cv::Mat small = gray;
+  if (max_side > 0 && side > max_side) {
+    scale = static_cast<double>(max_side) / side;
+    cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
+    scale = static_cast<double>(small.cols) / gray.cols;
+  }
+  std::vector<dlib::rect_detection> detections;
+  const double threshold = impl_->options.detect_threshold;
+  if (impl_->options.detect_upsample == 0) {
+    dlib::cv_image<unsigned char> view(small);
+    impl_->detector(view, detections, threshold);
+  } else {
+    dlib::array2d<unsigned char> up;
+    dlib::assign_image(up, dlib::cv_image<unsigned char>(small));
+    for (int i = 0; i < impl_->options.detect_upsample; ++i) {
+      dlib::pyramid_up(up);
+      scale *= 2.0;
+    }
+    impl_->detector(up, detections, threshold);
+  }
+  std::vector<FaceBox> boxes;
+  for (const dlib::rect_detection& d : detections) {
+    FaceBox b;
+    b.x = static_cast<float>(d.rect.left() / scale);
+    b.y = static_cast<float>(d.rect.top() / scale);
+    b.width = static_cast<float>(d.rect.width() / scale);
+    b.height = static_cast<float>(d.rect.height() / scale);
+    b.score = static_cast<float>(d.detection_confidence);
+    boxes.push_back(b);
+  }
+  std::stable_sort(boxes.begin(), boxes.end(),
+                   [](const FaceBox& a, const FaceBox& b) { return a.Area() > b.Area(); });
+  return boxes;
+}
+
+Landmarks FaceAnalyzer::FitLandmarks(const Image8& image, const FaceBox& box) const {
+  const cv::Mat gray = ToGray(image);
+  dlib::cv_image<unsigned char> view(gray);
+  const dlib::rectangle rect(static_cast<long>(std::lround(box.x)),
+                             static_cast<long>(std::lround(box.y)),
+                             static_cast<long>(std::lround(box.x + box.width)) - 1,
+                             static_cast<long>(std::lround(box.y + box.height)) - 1);
+  const dlib::full_object_detection shape = (*impl_->predictor)(view, rect);
+  Landmarks landmarks;
+  for (int i = 0; i < kNumLandmarks; ++i) {
+    landmarks(i, 0) = static_cast<float>(shape.part(i).x());
+    landmarks(i, 1) = static_cast<float>(shape.part(i).y());
+  }
+  return landmarks;
+}
+
+}  // namespace facecap::face

@@ -1,0 +1,470 @@
+// facecap ingest: video or images to frames.h5 (see ingest_stage.h).
+#include "stages/ingest_stage.h"
+
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include "face/align.h"
+#include "face/frame_source.h"
+#include "stages/cli.h"
+#include "stages/frame_loop.h"
+#include "stages/registry.h"
+#include "stages/resumable.h"
+#include "util/bytes.h"
+#include "util/errors.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+
+const char* IngestFrameStatusName(int32_t status) {
+  switch (status) {
+    case kFrameFound: return "found";
+    case kFrameNoFace: return "no_face";
+    case kFrameFaceTooSmall: return "face_too_small";
+    case kFrameUnreadable: return "unreadable";
+    case kFrameSubjectAbsent: return "subject_absent";
+    default: return "unknown";
+  }
+}
+
+bool IngestOptions::Check(std::string* why) const {
+  if (video.empty() == images.empty()) {
+    *why = "give exactly one of video (a video file) and images (a folder of images)";
+    return false;
+  }
+  if (out.empty()) { *why = "out must name a file"; return false; }
+  if (stride < 1) { *why = "stride must be >= 1"; return false; }
+  if (!(start_s >= 0.0)) { *why = "start_s must be >= 0"; return false; }
+  if (end_s >= 0.0 && end_s <= start_s) { *why = "end_s must be after start_s (or < 0)"; return false; }
+  if (max_frames < 0) { *why = "max_frames must be >= 0"; return false; }
+  if (min_face_size < 0) { *why = "min_face_size must be >= 0"; return false; }
+  if (max_image_pixels < 10000) { *why = "max_image_pixels must be >= 10000"; return false; }
+  if (batch < 1) { *why = "batch must be >= 1"; return false; }
+  if (threads < 0) { *why = "threads must be >= 0"; return false; }
+  face::CropOptions crop{crop_size, crop_padding};
+  if (!crop.Check(why)) return false;
+  face::SubjectTrackerOptions track{track_min_iou, track_max_gap};
+  if (!track.Check(why)) return false;
+  return Analyzer().Check(why);
+}
+
+face::FaceAnalyzerOptions IngestOptions::Analyzer() const {
+  face::FaceAnalyzerOptions a;
+  a.landmark_model = landmark_model;
+  a.detect_max_side = detect_max_side;
+  a.detect_upsample = detect_upsample;
+  a.detect_threshold = detect_threshold;
+  return a;
+}
+
+std::string IngestSummary::Line() const {
+  std::string s = std::to_string(frames) + " frames: " + std::to_string(found) + " with the subject's face, " +
+                  std::to_string(no_face) + " without a face, " + std::to_string(subject_absent) +
+                  " with other faces only, " + std::to_string(face_too_small) + " with a face too small, " +
+                  std::to_string(unreadable) + " unreadable";
+  if (from_grayscale || from_16bit || downscaled) {
+    s += "; converted: " + std::to_string(from_grayscale) + " grayscale, " +
+         std::to_string(from_16bit) + " 16-bit, " + std::to_string(downscaled) + " scaled down";
+  }
+  return s;
+}
+
+namespace {
+
+constexpr int kMaxFaces = 8;   // faces kept per frame in /detections
+constexpr int kL = face::kNumLandmarks;
+
+std::vector<int64_t> SelectFrames(const face::FrameSource& source, const IngestOptions& o) {
+  const int64_t n = source.NumFrames();
+  const double fps = source.Fps();
+  int64_t first = 0, last = n;
+  if (!o.video.empty() && fps > 0.0) {
+    first = static_cast<int64_t>(std::ceil(o.start_s * fps - 1e-6));
+    if (o.end_s >= 0.0) last = std::min(n, static_cast<int64_t>(std::ceil(o.end_s * fps - 1e-6)));
+  } else if (!o.video.empty() && (o.start_s > 0.0 || o.end_s >= 0.0)) {
+    throw InvalidInputError(o.video + ": the video reports no frame rate; start_s and end_s "
+                            "cannot be applied");
+  }
+  std::vector<int64_t> frames;
+  for (int64_t i = first; i < last; i += o.stride) {
+    frames.push_back(i);
+    if (o.max_frames > 0 && static_cast<int64_t>(frames.size()) >= o.max_frames) break;
+  }
+  if (frames.empty()) {
+    throw InvalidInputError((o.video.empty() ? o.images : o.video) + ": the time range [" +
+                            std::to_string(o.start_s) + ", " + std::to_string(o.end_s) +
+                            "] s selects no frame of " + std::to_string(n));
+  }
+  return frames;
+}
+
+// Writes frames of a round in contiguous runs: `write(first, count, begin)` with results
+// [begin, begin + count).
+template <typename Fn>
+void ForEachRun(const std::vector<int64_t>& frames, Fn&& write) {
+  size_t k = 0;
+  while (k < frames.size()) {
+    size_t end = k + 1;
+    while (end < frames.size() && frames[end] == frames[end - 1] + 1) ++end;
+    write(frames[k], static_cast<int64_t>(end - k), k);
+    k = end;
+  }
+}
+
+}  // namespace
+
+IngestSummary ReadIngestSummary(const std::string& path) {
+  io::H5File f = io::H5File::OpenRead(path);
+  IngestSummary s;
+  const std::vector<int32_t> status = f.ReadVector<int32_t>("/frames/status");
+  const std::vector<int32_t> flags = f.ReadVector<int32_t>("/frames/input_flags");
+  s.frames = static_cast<int64_t>(status.size());
+  for (int32_t v : status) {
+    s.found += v == kFrameFound;
+    s.no_face += v == kFrameNoFace;
+    s.face_too_small += v == kFrameFaceTooSmall;
+    s.unreadable += v == kFrameUnreadable;
+    s.subject_absent += v == kFrameSubjectAbsent;
+  }
+  for (int32_t v : flags) {
+    s.from_grayscale += (v & face::kInputFromGrayscale) != 0;
+    s.from_16bit += (v & face::kInputFrom16Bit) != 0;
+    s.downscaled += (v & face::kInputDownscaled) != 0;
+  }
+  return s;
+}
+
+IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const io::Config& resolved) {
+  const auto start = std::chrono::steady_clock::now();
+  const dist::Comm& comm = ctx.comm;
+  const int threads = ThreadsPerRank(o.threads);
+  const std::string input = o.video.empty() ? o.images : o.video;
+
+  // Every rank opens the input (one reader per thread) and loads the models.
+  std::vector<std::unique_ptr<face::FrameSource>> sources(threads);
+  std::vector<std::unique_ptr<face::FaceAnalyzer>> analyzers(threads);
+  std::vector<int64_t> selected;
+  dist::CoordinateExceptions(comm, [&] {
+    for (int t = 0; t < threads; ++t) {
+      sources[t] = o.video.empty() ? face::FrameSource::OpenImages(o.images, o.max_image_pixels)
+                                   : face::FrameSource::OpenVideo(o.video, o.max_image_pixels);
+    }
+    selected = SelectFrames(*sources[0], o);
+    analyzers[0] = std::make_unique<face::FaceAnalyzer>(o.Analyzer());
+    for (int t = 1; t < threads; ++t) analyzers[t] = analyzers[0]->Clone();
+  });
+  const int64_t n = static_cast<int64_t>(selected.size());
+  const face::FrameSource& source = *sources[0];
+  const int S = o.crop_size;
+  const face::CropOptions crop_options{o.crop_size, o.crop_padding};
+
+  // Rank 0 opens (or continues) the output.
+  ResumableOutput output;
+  int up_to_date = 0;
+  std::vector<int64_t> pending_detect;
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "ingest", resolved));
+    if (output.up_to_date) {
+      up_to_date = 1;
+      return;
+    }
+    io::H5File& f = output.file;
+    f.CreateFrames<float>("/detections/boxes", {kMaxFaces, 5}, n, 256);
+    f.SetAttribute("/detections/boxes", "columns", std::string("x, y, width, height, score (source pixels), largest first"));
+    f.CreateFrames<int32_t>("/detections/count", {}, n, 1024);
+    f.CreateFrames<int32_t>("/frames/image_size", {2}, n, 1024);
+    f.SetAttribute("/frames/image_size", "columns", std::string("width, height (source pixels)"));
+    f.CreateFrames<int32_t>("/frames/input_flags", {}, n, 1024);
+    f.SetAttribute("/frames/input_flags", "bits", std::string("1 grayscale, 2 16-bit, 4 float, 8 alpha dropped, 16 scaled down"));
+    f.CreateFrames<int32_t>("/frames/status", {}, n, 1024);
+    f.SetAttribute("/frames/status", "values", std::string("0 found, 1 no_face, 2 face_too_small, 3 unreadable, 4 subject_absent"));
+    f.CreateFrames<uint8_t>("/frames/found", {}, n, 1024);
+    f.CreateFrames<float>("/frames/landmarks", {kL, 2}, n, 64);
+    f.SetAttribute("/frames/landmarks", "units", std::string("source pixels (x right, y down), iBUG 68 order"));
+    f.CreateFrames<float>("/frames/landmarks_crop", {kL, 2}, n, 64);
+    f.SetAttribute("/frames/landmarks_crop", "units", std::string("crop pixels (x right, y down), iBUG 68 order"));
+    f.CreateFrames<float>("/frames/crop_transform", {2, 3}, n, 256);
+    f.SetAttribute("/frames/crop_transform", "meaning", std::string("[s R | t]: source pixels -> crop pixels"));
+    f.CreateFrames<uint8_t>("/frames/crop", {S, S, 3}, n, 8);
+    f.SetAttribute("/frames/crop", "layout", std::string("frame, y, x, RGB"));
+    if (!output.resumed) {
+      std::vector<int64_t> index(selected);
+      std::vector<int32_t> file_id(n);
+      std::vector<double> timecode(n);
+      for (int64_t k = 0; k < n; ++k) {
+        file_id[k] = source.FileIdOf(selected[k]);
+        timecode[k] = source.TimecodeOf(selected[k]);
+      }
+      f.WriteVector("/frames/source_index", index);
+      f.SetAttribute("/frames/source_index", "meaning", std::string("frame index in the video, or image index in the folder"));
+      f.WriteVector("/frames/source_file_id", file_id);
+      f.SetAttribute("/frames/source_file_id", "meaning", std::string("row of /sources/files"));
+      f.WriteVector("/frames/timecode", timecode);
+      f.SetAttribute("/frames/timecode", "units", std::string("seconds from the start of the video (-1: still image)"));
+      f.WriteStrings("/sources/files", source.Files());
+      f.SetAttribute("/sources/files", "fps", source.Fps());
+      f.SetAttribute("/sources/files", "num_frames", source.NumFrames());
+      f.SetAttribute("/", "crop_padding", o.crop_padding);
+    }
+    io::DoneMask detected(&f, n, "/progress/detected");
+    pending_detect = detected.Pending();
+    if (output.resumed) {
+      FC_INFO("ingest: continuing {}: {} of {} frames detected", io::H5File::PartialPath(o.out),
+              detected.NumDone(), n);
+    }
+  });
+  comm.Broadcast(&up_to_date, sizeof(up_to_date));
+  if (up_to_date) {
+    IngestSummary s;
+    if (comm.IsMainRank()) {
+      s = ReadIngestSummary(o.out);
+      FC_INFO("ingest: {} is up to date; {}", o.out, s.Line());
+    }
+    return s;
+  }
+
+  // Pass 1: decode and detect.
+  FrameLoopOptions loop;
+  loop.what = "ingest detect";
+  loop.batch = o.batch;
+  loop.threads = threads;
+  int64_t unreadable_logged = 0;
+  auto detect = [&](int64_t k, int thread) {
+    face::DecodedFrame frame = sources[thread]->Read(selected[k]);
+    ByteWriter w;
+    w.Put<int32_t>(frame.ok ? 1 : 0);
+    w.Put<int32_t>(frame.input_flags);
+    w.Put<int32_t>(frame.source_width);
+    w.Put<int32_t>(frame.source_height);
+    std::vector<float> boxes;
+    if (frame.ok) {
+      const std::vector<face::FaceBox> faces = analyzers[thread]->Detect(frame.image);
+      const double s = frame.source_scale;
+      for (size_t j = 0; j < faces.size() && j < static_cast<size_t>(kMaxFaces); ++j) {
+        const face::FaceBox& b = faces[j];
+        for (float v : {static_cast<float>(b.x * s), static_cast<float>(b.y * s),
+                        static_cast<float>(b.width * s), static_cast<float>(b.height * s), b.score}) {
+          boxes.push_back(v);
+        }
+      }
+    }
+    w.PutVector(boxes);
+    w.PutVector(std::vector<char>(frame.error.begin(), frame.error.end()));
+    return std::move(w.bytes());
+  };
+  auto commit_detect = [&](const std::vector<int64_t>& frames,
+                           const std::vector<std::vector<uint8_t>>& results) {
+    io::H5File& f = output.file;
+    ForEachRun(frames, [&](int64_t first, int64_t count, size_t begin) {
+      std::vector<float> boxes(count * kMaxFaces * 5, 0.f);
+      std::vector<int32_t> num(count), size(count * 2), flags(count), status(count);
+      for (int64_t j = 0; j < count; ++j) {
+        ByteReader r(results[begin + j]);
+        const bool ok = r.Get<int32_t>() != 0;
+        flags[j] = r.Get<int32_t>();
+        size[2 * j] = r.Get<int32_t>();
+        size[2 * j + 1] = r.Get<int32_t>();
+        const std::vector<float> b = r.GetVector<float>();
+        const std::vector<char> error = r.GetVector<char>();
+        num[j] = static_cast<int32_t>(b.size() / 5);
+        std::copy(b.begin(), b.end(), boxes.begin() + j * kMaxFaces * 5);
+        // Provisional status; the subject pass sets the final one.
+        status[j] = ok ? (num[j] ? kFrameFound : kFrameNoFace) : kFrameUnreadable;
+        if (!ok && unreadable_logged++ < 5) {
+          FC_WARN("ingest: frame {} (source {}) is unreadable: {}", first + j, selected[first + j],
+                  std::string(error.begin(), error.end()));
+        }
+      }
+      f.WriteFrames<float>("/detections/boxes", first, count, boxes.data());
+      f.WriteFrames<int32_t>("/detections/count", first, count, num.data());
+      f.WriteFrames<int32_t>("/frames/image_size", first, count, size.data());
+      f.WriteFrames<int32_t>("/frames/input_flags", first, count, flags.data());
+      f.WriteFrames<int32_t>("/frames/status", first, count, status.data());
+    });
+    io::DoneMask mask(&f, n, "/progress/detected");
+    mask.MarkDone(frames);
+  };
+  RunFrameLoop(comm, pending_detect, n, loop, detect, commit_detect);
+
+  // Pass 2: follow the subject over the boxes of all frames (rank 0), then share the plan.
+  std::vector<int32_t> plan_status(n, kFrameNoFace);
+  std::vector<float> plan_box(n * 5, 0.f);
+  std::vector<int64_t> pending_landmarks;
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    io::H5File& f = output.file;
+    const std::vector<float> boxes = f.Read<float>("/detections/boxes", {n, kMaxFaces, 5});
+    const std::vector<int32_t> count = f.ReadVector<int32_t>("/detections/count", n);
+    const std::vector<int32_t> provisional = f.ReadVector<int32_t>("/frames/status", n);
+    std::vector<std::vector<face::FaceBox>> faces(n);
+    for (int64_t k = 0; k < n; ++k) {
+      for (int j = 0; j < count[k]; ++j) {
+        const float* b = &boxes[(k * kMaxFaces + j) * 5];
+        faces[k].push_back(face::FaceBox{b[0], b[1], b[2], b[3], b[4]});
+      }
+    }
+    const std::vector<int> chosen =
+        face::FollowSubject(faces, face::SubjectTrackerOptions{o.track_min_iou, o.track_max_gap});
+    for (int64_t k = 0; k < n; ++k) {
+      if (provisional[k] == kFrameUnreadable) {
+        plan_status[k] = kFrameUnreadable;
+      } else if (faces[k].empty()) {
+        plan_status[k] = kFrameNoFace;
+      } else if (chosen[k] < 0) {
+        plan_status[k] = kFrameSubjectAbsent;
+      } else {
+        const face::FaceBox& b = faces[k][chosen[k]];
+        plan_status[k] = b.width < o.min_face_size ? kFrameFaceTooSmall : kFrameFound;
+        const float values[5] = {b.x, b.y, b.width, b.height, b.score};
+        std::copy(values, values + 5, plan_box.begin() + k * 5);
+      }
+    }
+    if (!f.Exists("/frames/box")) {
+      f.WriteMatrix("/frames/box", Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, 5, Eigen::RowMajor>>(
+                                       plan_box.data(), n, 5));
+      f.SetAttribute("/frames/box", "columns", std::string("x, y, width, height, score of the subject's face (source pixels; zeros: none)"));
+    }
+    io::DoneMask done(&f, n, "/progress/done");
+    pending_landmarks = done.Pending();
+  });
+  comm.Broadcast(&plan_status);
+  comm.Broadcast(&plan_box);
+
+  // Pass 3: landmarks and aligned crops of the subject's face.
+  loop.what = "ingest landmarks";
+  auto landmark = [&](int64_t k, int thread) {
+    ByteWriter w;
+    int32_t status = plan_status[k];
+    if (status != kFrameFound) {
+      w.Put(status);
+      return std::move(w.bytes());
+    }
+    face::DecodedFrame frame = sources[thread]->Read(selected[k]);
+    if (!frame.ok) {
+      w.Put<int32_t>(kFrameUnreadable);
+      return std::move(w.bytes());
+    }
+    const double s = frame.source_scale;
+    const float* b = &plan_box[k * 5];
+    const face::FaceBox box{static_cast<float>(b[0] / s), static_cast<float>(b[1] / s),
+                            static_cast<float>(b[2] / s), static_cast<float>(b[3] / s), b[4]};
+    const face::Landmarks landmarks = analyzers[thread]->FitLandmarks(frame.image, box);
+    const face::AlignedCrop crop = face::AlignFace(frame.image, landmarks, crop_options);
+    // Landmarks and the crop transform in source pixels.
+    const face::Landmarks source_landmarks = landmarks * static_cast<float>(s);
+    face::Similarity2 t = crop.transform;
+    t.scale /= s;
+    const Eigen::Matrix<double, 2, 3> m = t.Matrix();
+    w.Put(status);
+    w.PutArray(source_landmarks.data(), kL * 2);
+    w.PutArray(crop.landmarks.data(), kL * 2);
+    const float transform[6] = {static_cast<float>(m(0, 0)), static_cast<float>(m(0, 1)),
+                                static_cast<float>(m(0, 2)), static_cast<float>(m(1, 0)),
+                                static_cast<float>(m(1, 1)), static_cast<float>(m(1, 2))};
+    w.PutArray(transform, 6);
+    w.PutVector(crop.image.data);
+    return std::move(w.bytes());
+  };
+  auto commit_landmarks = [&](const std::vector<int64_t>& frames,
+                              const std::vector<std::vector<uint8_t>>& results) {
+    io::H5File& f = output.file;
+    ForEachRun(frames, [&](int64_t first, int64_t count, size_t begin) {
+      std::vector<int32_t> status(count);
+      std::vector<uint8_t> found(count, 0);
+      std::vector<float> lm(count * kL * 2, 0.f), lm_crop(count * kL * 2, 0.f), tf(count * 6, 0.f);
+      std::vector<uint8_t> crops(count * S * S * 3, 0);
+      for (int64_t j = 0; j < count; ++j) {
+        ByteReader r(results[begin + j]);
+        status[j] = r.Get<int32_t>();
+        if (status[j] != kFrameFound) continue;
+        found[j] = 1;
+        const auto a = r.GetVector<float>();
+        const auto c = r.GetVector<float>();
+        const auto t = r.GetVector<float>();
+        const auto img = r.GetVector<uint8_t>();
+        std::copy(a.begin(), a.end(), lm.begin() + j * kL * 2);
+        std::copy(c.begin(), c.end(), lm_crop.begin() + j * kL * 2);
+        std::copy(t.begin(), t.end(), tf.begin() + j * 6);
+        std::copy(img.begin(), img.end(), crops.begin() + j * S * S * 3);
+      }
+      f.WriteFrames<int32_t>("/frames/status", first, count, status.data());
+      f.WriteFrames<uint8_t>("/frames/found", first, count, found.data());
+      f.WriteFrames<float>("/frames/landmarks", first, count, lm.data());
+      f.WriteFrames<float>("/frames/landmarks_crop", first, count, lm_crop.data());
+      f.WriteFrames<float>("/frames/crop_transform", first, count, tf.data());
+      f.WriteFrames<uint8_t>("/frames/crop", first, count, crops.data());
+    });
+    io::DoneMask mask(&f, n, "/progress/done");
+    mask.MarkDone(frames);
+  };
+  RunFrameLoop(comm, pending_landmarks, n, loop, landmark, commit_landmarks);
+
+  // Summary, then the final name.
+  IngestSummary summary;
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    io::H5File& f = output.file;
+    output.file.Flush();
+    const std::vector<int32_t> status = f.ReadVector<int32_t>("/frames/status", n);
+    const std::vector<int32_t> flags = f.ReadVector<int32_t>("/frames/input_flags", n);
+    summary.frames = n;
+    for (int64_t k = 0; k < n; ++k) {
+      summary.found += status[k] == kFrameFound;
+      summary.no_face += status[k] == kFrameNoFace;
+      summary.face_too_small += status[k] == kFrameFaceTooSmall;
+      summary.unreadable += status[k] == kFrameUnreadable;
+      summary.subject_absent += status[k] == kFrameSubjectAbsent;
+      summary.from_grayscale += (flags[k] & face::kInputFromGrayscale) != 0;
+      summary.from_16bit += (flags[k] & face::kInputFrom16Bit) != 0;
+      summary.downscaled += (flags[k] & face::kInputDownscaled) != 0;
+    }
+    for (const auto& [name, value] :
+         {std::pair<const char*, int64_t>{"num_frames", summary.frames}, {"num_found", summary.found},
+          {"num_no_face", summary.no_face}, {"num_face_too_small", summary.face_too_small},
+          {"num_unreadable", summary.unreadable}, {"num_subject_absent", summary.subject_absent},
+          {"num_from_grayscale", summary.from_grayscale}, {"num_from_16bit", summary.from_16bit},
+          {"num_downscaled", summary.downscaled}}) {
+      f.SetAttribute("/frames", name, value);
+    }
+    f.Commit();
+  });
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (comm.IsMainRank()) {
+    FC_INFO("ingest: {} -> {}", input, o.out);
+    FC_INFO("ingest summary: {}", summary.Line());
+    FC_INFO("ingest: {:.1f} s, {:.1f} frames/s on {} rank(s) x {} thread(s)", summary.seconds,
+            n / std::max(1e-9, summary.seconds), comm.size(), threads);
+  }
+  int64_t found = summary.found;
+  comm.Broadcast(&found, sizeof(found));
+  if (found == 0) {
+    throw FileIOError(input + ": no face found in any of the " + std::to_string(n) +
+                      " frames (the per-frame accounting is in " + o.out + ", /frames/status)");
+  }
+  return summary;
+}
+
+namespace {
+
+void RunIngestCommand(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<IngestOptions>(flags, &ctx, &resolved);
+  RunIngest(o, ctx, resolved);
+}
+
+}  // namespace
+
+void RegisterIngest(CLI::App* app, AppState* state) {
+  AddStage<IngestOptions>(
+      app, state, "ingest", "ingest", "ingest",
+      "Real footage to frames.h5: a video (--video) or image folder (--images), faces detected "
+      "with dlib, one subject followed, 68 landmarks, similarity-aligned crops, source file, "
+      "frame index and timecode per frame; spread across ranks, identical for any rank count, "
+      "resumable",
+      RunIngestCommand);
+}
+
+}  // namespace facecap::stages
