@@ -5,7 +5,9 @@
 #   analysis/bench_render.sh [BUILD_DIR] [-- extra facecap_bench_render options]
 #
 # BUILD_DIR defaults to $FACECAP_BUILD_DIR, then build/ under the source tree. Extra
-# options go to the benchmark, e.g. `-- --rig rig.h5` for a real head, `-- --size 256`.
+# options go to the benchmark, e.g. `-- --rig rig.h5` for another head, `-- --size 256`.
+# Without --rig, the demo head (`facecap rig demo`) is measured, and an icosphere of similar
+# size for reference.
 set -euo pipefail
 
 source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -32,4 +34,14 @@ if [[ ! -x "${bench}" ]]; then
 fi
 
 echo "# facecap render benchmark, 1 thread ($(uname -m), $(getconf _NPROCESSORS_ONLN) cores on this machine)"
-OMP_NUM_THREADS=1 "${bench}" --size 128 "$@"
+if [[ " $* " == *" --rig "* ]]; then
+  OMP_NUM_THREADS=1 "${bench}" --size 128 "$@"
+else
+  tmp_dir="$(mktemp -d)"
+  trap 'rm -rf "${tmp_dir}" "${build_log:-}"' EXIT
+  "${build_dir}/facecap" rig demo --out "${tmp_dir}/rig.h5" >/dev/null 2>&1
+  echo "## demo head"
+  OMP_NUM_THREADS=1 "${bench}" --size 128 --rig "${tmp_dir}/rig.h5" "$@"
+  echo "## icosphere (reference)"
+  OMP_NUM_THREADS=1 "${bench}" --size 128 "$@"
+fi

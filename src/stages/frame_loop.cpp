@@ -18,6 +18,7 @@ namespace facecap::stages {
 int ThreadsPerRank(int requested) {
   if (requested > 0) return requested;
   if (std::getenv("OMP_NUM_THREADS")) return std::max(1, omp_get_max_threads());
+  if (const char* cpus = std::getenv("SLURM_CPUS_PER_TASK")) return std::max(1, std::atoi(cpus));
   int local_ranks = 1;
   for (const char* var : {"OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS", "SLURM_NTASKS_PER_NODE"}) {
     if (const char* v = std::getenv(var)) {

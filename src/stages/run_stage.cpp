@@ -17,7 +17,9 @@ struct RunFlags {
   std::vector<std::string> sets;
   std::string from;
   std::string until;
+  std::string only;
   bool dry_run = false;
+  bool list = false;
 };
 
 // Why a stage runs, or "" when its output is up to date.
@@ -78,8 +80,15 @@ void RunJob(const RunFlags& flags, AppState* state) {
     for (size_t i = 0; i < plan.size(); ++i) if (plan[i]->table == table) return i;
     throw InvalidInputError(std::string("--") + flag + " " + table + ": not a stage of " + flags.job);
   };
-  const size_t first = flags.from.empty() ? 0 : index_of(flags.from, "from");
-  const size_t last = flags.until.empty() ? plan.size() - 1 : index_of(flags.until, "until");
+  if (flags.list) {
+    if (state->comm.IsMainRank()) {
+      for (const StageSpec* spec : plan) std::cout << spec->table << "\n";
+    }
+    return;
+  }
+  size_t first = flags.from.empty() ? 0 : index_of(flags.from, "from");
+  size_t last = flags.until.empty() ? plan.size() - 1 : index_of(flags.until, "until");
+  if (!flags.only.empty()) first = last = index_of(flags.only, "only");
   const bool main_rank = state->comm.IsMainRank();
   if (main_rank) FC_INFO("run {}: {} stages", flags.job, plan.size());
   for (size_t i = 0; i < plan.size(); ++i) {
@@ -87,7 +96,7 @@ void RunJob(const RunFlags& flags, AppState* state) {
     std::string out;
     std::string why = WhyRun(spec, config, &out);
     if (i < first || i > last) why = "";
-    const bool forced = (!flags.from.empty() && i == first);
+    const bool forced = !flags.from.empty() && flags.only.empty() && i == first;
     if (forced && why.empty()) why = "--from starts here";
     if (flags.dry_run) {
       if (main_rank) {
@@ -98,6 +107,7 @@ void RunJob(const RunFlags& flags, AppState* state) {
       }
       continue;
     }
+    if (i < first || i > last) continue;
     if (why.empty()) {
       if (main_rank) FC_INFO("[{}/{}] {}: up to date ({}), skipped", i + 1, plan.size(), spec.command, out);
       continue;
@@ -126,7 +136,11 @@ void RegisterRun(CLI::App* app, AppState* state) {
   sub->add_option("--set", flags->sets, "override a job-file value: --set table.key=value");
   sub->add_option("--from", flags->from, "start at this stage table (it reruns even if up to date)");
   sub->add_option("--until", flags->until, "stop after this stage table");
+  sub->add_option("--only", flags->only,
+                  "run only this stage table (skipped when up to date), as Slurm scripts do "
+                  "with one srun per stage");
   sub->add_flag("--dry-run", flags->dry_run, "print what would run and why, run nothing");
+  sub->add_flag("--list", flags->list, "print the job's stage tables in order, one per line");
   sub->callback([=] { RunJob(*flags, state); });
 }
 
