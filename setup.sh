@@ -30,6 +30,8 @@ PACKAGES=(
   slurm-wlm munge
   # analysis scripts (Debian's python3)
   python3-h5py python3-matplotlib python3-numpy
+  # real test media: a portrait photo (grace_hopper.jpg) for the face and ingest tests
+  python-matplotlib-data
 )
 
 SUDO=""
@@ -63,10 +65,9 @@ export OMPI_MCA_btl_vader_single_copy_mechanism=none
 
 case "$MODE" in
   demo)
-    mkdir -p out/demo
-    ./build/facecap rig demo --out out/demo/rig.h5
-    ./build/facecap render --rig out/demo/rig.h5 --sheet --out out/demo/sheet.png
-    echo "setup.sh: demo outputs in out/demo/ (rig.h5, sheet.png)"
+    # The demo pipeline on 2 ranks; rerunning skips what is up to date.
+    mpirun --oversubscribe -n 2 ./build/facecap run jobs/demo.toml
+    echo "setup.sh: demo outputs in out/demo/"
     ;;
   test)
     ctest --test-dir build --output-on-failure -j 2 -LE long
