@@ -65,7 +65,7 @@ std::vector<int> FollowSubject(const std::vector<std::vector<FaceBox>>& faces,
       continue;
     }
     int pick = -1;
-    if (!tracking || gap > options.max_gap) {
+    if (!tracking || gap >= options.max_gap) {
       pick = largest(boxes);
     } else {
       float best_iou = options.min_iou;

@@ -47,10 +47,9 @@ struct SubjectTrackerOptions {
 
 // Follows one subject through frames given each frame's detected faces (any order): the
 // subject starts as the largest face of the first frame with a face, and continues with the
-// face that overlaps its last box most; when it is lost for more than max_gap frames the
-// largest face takes over. A sequential pass over boxes only, so ranks can detect in
-// parallel and agree on the subject. Returns, per frame, the index of the subject's face in
-// that frame's list, or -1.
+// face that overlaps its last box most; after max_gap frames without it, the largest face
+// takes over. A sequential pass over boxes only, so ranks can detect in parallel and agree on
+// the subject. Returns, per frame, the index of the subject's face in that frame's list, or -1.
 std::vector<int> FollowSubject(const std::vector<std::vector<FaceBox>>& faces,
                                const SubjectTrackerOptions& options = SubjectTrackerOptions());
 

@@ -32,6 +32,8 @@ int RunApp(int argc, char** argv) {
   RegisterRender(&app, &state);
   RegisterSynth(&app, &state);
   RegisterIngest(&app, &state);
+  RegisterCurate(&app, &state);
+  RegisterDeepfake(&app, &state);
   RegisterRun(&app, &state);
 
   int code = kExitOk;

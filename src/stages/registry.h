@@ -72,6 +72,8 @@ void RegisterRig(CLI::App* app, AppState* state);
 void RegisterRender(CLI::App* app, AppState* state);
 void RegisterSynth(CLI::App* app, AppState* state);
 void RegisterIngest(CLI::App* app, AppState* state);
+void RegisterCurate(CLI::App* app, AppState* state);
+void RegisterDeepfake(CLI::App* app, AppState* state);
 void RegisterRun(CLI::App* app, AppState* state);
 
 std::string VersionReport(const dist::Comm& comm);

@@ -1,0 +1,546 @@
+// The only translation unit of the deepfake that includes torch (it takes a while to compile).
+#include "nn/deepfake.h"
+
+#include <torch/torch.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "util/errors.h"
+
+namespace facecap::nn {
+
+namespace {
+
+bool IsPowerOfTwo(int v) { return v > 0 && (v & (v - 1)) == 0; }
+int Log2(int v) {
+  int l = 0;
+  while ((1 << l) < v) ++l;
+  return l;
+}
+
+torch::nn::LeakyReLU Leaky(double slope) {
+  return torch::nn::LeakyReLU(torch::nn::LeakyReLUOptions().negative_slope(slope));
+}
+
+torch::nn::Conv2d Conv(int in, int out, int kernel, int stride, int padding) {
+  return torch::nn::Conv2d(torch::nn::Conv2dOptions(in, out, kernel).stride(stride).padding(padding));
+}
+
+// E: strided 5x5 convolutions from size down to latent_resolution, channels encoder_width,
+// 2x, 4x, ..., then a 1x1 convolution to the latent_channels of the code E(I) (no activation).
+torch::nn::Sequential MakeEncoder(const DeepfakeNetworkOptions& o) {
+  torch::nn::Sequential seq;
+  const int levels = Log2(o.size / o.latent_resolution);
+  int in = 3;
+  for (int l = 0; l < levels; ++l) {
+    const int out = o.encoder_width << l;
+    seq->push_back("down" + std::to_string(l), Conv(in, out, 5, 2, 2));
+    seq->push_back("act" + std::to_string(l), Leaky(0.1));
+    in = out;
+  }
+  seq->push_back("code", Conv(in, o.latent_channels, 1, 1, 0));
+  return seq;
+}
+
+// D_A, D_B: a 3x3 convolution from the code, then per level a nearest 2x upsampling and a 3x3
+// convolution (channels halving down to decoder_width), and a 3x3 convolution to RGB in [0, 1].
+torch::nn::Sequential MakeDecoder(const DeepfakeNetworkOptions& o) {
+  torch::nn::Sequential seq;
+  const int levels = Log2(o.size / o.latent_resolution);
+  int in = o.decoder_width << (levels - 1);
+  seq->push_back("in", Conv(o.latent_channels, in, 3, 1, 1));
+  seq->push_back("in_act", Leaky(0.1));
+  for (int l = levels - 1; l >= 0; --l) {
+    const int out = o.decoder_width << l;
+    const std::string k = std::to_string(levels - 1 - l);
+    seq->push_back("upsample" + k,
+                   torch::nn::Upsample(torch::nn::UpsampleOptions()
+                                           .scale_factor(std::vector<double>{2.0, 2.0})
+                                           .mode(torch::kNearest)));
+    seq->push_back("up" + k, Conv(in, out, 3, 1, 1));
+    seq->push_back("act" + k, Leaky(0.1));
+    in = out;
+  }
+  seq->push_back("rgb", Conv(in, 3, 3, 1, 1));
+  seq->push_back("sigmoid", torch::nn::Sigmoid());
+  return seq;
+}
+
+// G_image: a PatchGAN, one score per patch (least-squares GAN: no sigmoid).
+torch::nn::Sequential MakeImageDiscriminator(const DeepfakeNetworkOptions& o) {
+  torch::nn::Sequential seq;
+  const int w = o.discriminator_width;
+  seq->push_back("conv0", Conv(3, w, 4, 2, 1));
+  seq->push_back("act0", Leaky(0.2));
+  seq->push_back("conv1", Conv(w, 2 * w, 4, 2, 1));
+  seq->push_back("act1", Leaky(0.2));
+  seq->push_back("score", Conv(2 * w, 1, 3, 1, 1));
+  return seq;
+}
+
+// G_latent: one score per position of the spatial code.
+torch::nn::Sequential MakeLatentDiscriminator(const DeepfakeNetworkOptions& o) {
+  torch::nn::Sequential seq;
+  const int w = o.discriminator_width;
+  seq->push_back("conv0", Conv(o.latent_channels, w, 3, 1, 1));
+  seq->push_back("act0", Leaky(0.2));
+  seq->push_back("conv1", Conv(w, w, 3, 1, 1));
+  seq->push_back("act1", Leaky(0.2));
+  seq->push_back("score", Conv(w, 1, 1, 1, 0));
+  return seq;
+}
+
+// (1 - SSIM) / 2 over 7x7 windows, averaged.
+torch::Tensor Dssim(const torch::Tensor& x, const torch::Tensor& y) {
+  const int k = std::min<int64_t>(7, x.size(2));
+  auto pool = [k](const torch::Tensor& t) { return torch::avg_pool2d(t, {k, k}, {1, 1}); };
+  const double c1 = 0.01 * 0.01, c2 = 0.03 * 0.03;
+  const torch::Tensor mx = pool(x), my = pool(y);
+  const torch::Tensor sxx = pool(x * x) - mx * mx;
+  const torch::Tensor syy = pool(y * y) - my * my;
+  const torch::Tensor sxy = pool(x * y) - mx * my;
+  const torch::Tensor ssim =
+      ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2));
+  return (1.0 - ssim.mean()) * 0.5;
+}
+
+// uint8 NHWC -> float NCHW in [0, 1] on `device`.
+torch::Tensor FromBytes(const uint8_t* images, int count, int size, const torch::Device& device) {
+  torch::Tensor t = torch::from_blob(const_cast<uint8_t*>(images), {count, size, size, 3},
+                                     torch::kUInt8);
+  return t.permute({0, 3, 1, 2}).to(torch::kFloat32).div(255.0).contiguous().to(device);
+}
+
+torch::Tensor FromFloats(const std::vector<float>& images, int count, int size,
+                         const torch::Device& device) {
+  torch::Tensor t = torch::from_blob(const_cast<float*>(images.data()), {count, size, size, 3},
+                                     torch::kFloat32);
+  return t.permute({0, 3, 1, 2}).contiguous().to(device);
+}
+
+// float NCHW in [0, 1] -> uint8 NHWC on the host.
+torch::Tensor ToBytes(const torch::Tensor& images) {
+  return images.detach().clamp(0, 1).mul(255.0).round().to(torch::kUInt8)
+      .permute({0, 2, 3, 1}).contiguous().to(torch::kCPU);
+}
+
+}  // namespace
+
+bool DeepfakeNetworkOptions::Check(std::string* why) const {
+  if (!IsPowerOfTwo(size) || size < 16 || size > 1024) {
+    *why = "size must be a power of two in [16, 1024], got " + std::to_string(size);
+    return false;
+  }
+  if (!IsPowerOfTwo(latent_resolution) || latent_resolution >= size || latent_resolution < 1) {
+    *why = "latent_resolution must be a power of two smaller than size";
+    return false;
+  }
+  if (encoder_width < 1 || decoder_width < 1 || discriminator_width < 1 || latent_channels < 1) {
+    *why = "encoder_width, decoder_width, discriminator_width and latent_channels must be positive";
+    return false;
+  }
+  const int levels = Log2(size / latent_resolution);
+  if ((static_cast<int64_t>(encoder_width) << levels) > 65536 ||
+      (static_cast<int64_t>(decoder_width) << levels) > 65536) {
+    *why = "encoder_width or decoder_width is too large for this many levels";
+    return false;
+  }
+  return true;
+}
+
+bool DeepfakeLossOptions::Check(std::string* why) const {
+  for (float w : {l1_weight, l2_weight, dssim_weight, image_gan_weight, latent_gan_weight}) {
+    if (!(w >= 0)) { *why = "loss weights must be >= 0"; return false; }
+  }
+  if (l1_weight + l2_weight + dssim_weight <= 0) {
+    *why = "at least one of l1_weight, l2_weight, dssim_weight must be positive";
+    return false;
+  }
+  if (!(learning_rate > 0) || !(discriminator_learning_rate > 0)) {
+    *why = "learning rates must be positive";
+    return false;
+  }
+  if (!(beta1 >= 0 && beta1 < 1) || !(beta2 >= 0 && beta2 < 1)) {
+    *why = "beta1 and beta2 must be in [0, 1)";
+    return false;
+  }
+  return true;
+}
+
+void DeepfakeLosses::ToArray(double* v) const {
+  v[0] = recon_a; v[1] = recon_b; v[2] = image_adversarial; v[3] = latent_adversarial;
+  v[4] = image_discriminator; v[5] = latent_discriminator;
+}
+void DeepfakeLosses::FromArray(const double* v) {
+  recon_a = v[0]; recon_b = v[1]; image_adversarial = v[2]; latent_adversarial = v[3];
+  image_discriminator = v[4]; latent_discriminator = v[5];
+}
+
+void SetTorchThreads(int threads) {
+  torch::set_num_threads(std::max(1, threads));
+  static bool interop_set = false;  // may be set once, before any parallel work
+  if (!interop_set) {
+    interop_set = true;
+    try { torch::set_num_interop_threads(1); } catch (const std::exception&) {}
+  }
+}
+
+bool CudaAvailable() { return torch::cuda::is_available(); }
+
+// ---------------------------------------------------------------------------------------------
+
+struct DeepfakeModel::Impl {
+  DeepfakeNetworkOptions options;
+  torch::Device device = torch::kCPU;
+  torch::nn::Sequential encoder{nullptr}, decoder_a{nullptr}, decoder_b{nullptr};
+  torch::nn::Sequential image_discriminator{nullptr}, latent_discriminator{nullptr};
+  std::vector<torch::Tensor> parameters;  // views into `flat`, in layout order
+  std::vector<TensorSlot> layout;
+  int64_t generator_count = 0;  // E, D_A, D_B come first in the buffers
+  torch::Tensor flat;           // every parameter, on the device
+  torch::Tensor host;           // host mirror of `flat` (only when the device is not the CPU)
+
+  bool on_cpu() const { return device.is_cpu(); }
+  float* host_data() { return on_cpu() ? flat.data_ptr<float>() : host.data_ptr<float>(); }
+
+  void Collect(const std::string& prefix, const torch::nn::Sequential& net) {
+    for (const auto& item : net->named_parameters()) {
+      std::string name = prefix + "/" + item.key();
+      for (char& c : name) if (c == '.') c = '/';
+      TensorSlot slot;
+      slot.name = name;
+      slot.shape = item.value().sizes().vec();
+      slot.count = item.value().numel();
+      layout.push_back(slot);
+      parameters.push_back(item.value());
+    }
+  }
+};
+
+DeepfakeModel::DeepfakeModel(const DeepfakeNetworkOptions& options, uint64_t init_seed,
+                             const std::string& device)
+    : impl_(std::make_unique<Impl>()) {
+  std::string why;
+  if (!options.Check(&why)) throw InvalidInputError("deepfake network: " + why);
+  Impl& m = *impl_;
+  m.options = options;
+  if (device == "cuda") {
+    if (!torch::cuda::is_available()) {
+      throw InvalidInputError("device cuda: this libtorch has no CUDA or no GPU is visible; use "
+                              "--device cpu");
+    }
+    m.device = torch::Device(torch::kCUDA);
+  } else if (device != "cpu") {
+    throw InvalidInputError("device must be cpu or cuda, got '" + device + "'");
+  }
+  torch::manual_seed(init_seed);
+  m.encoder = MakeEncoder(options);
+  m.decoder_a = MakeDecoder(options);
+  m.decoder_b = MakeDecoder(options);
+  m.image_discriminator = MakeImageDiscriminator(options);
+  m.latent_discriminator = MakeLatentDiscriminator(options);
+  for (auto* net : {&m.encoder, &m.decoder_a, &m.decoder_b, &m.image_discriminator,
+                    &m.latent_discriminator}) {
+    (*net)->to(m.device);
+  }
+  m.Collect("encoder", m.encoder);
+  m.Collect("decoder_a", m.decoder_a);
+  m.Collect("decoder_b", m.decoder_b);
+  m.generator_count = 0;
+  for (const auto& s : m.layout) m.generator_count += s.count;
+  m.Collect("image_discriminator", m.image_discriminator);
+  m.Collect("latent_discriminator", m.latent_discriminator);
+  int64_t total = 0;
+  for (auto& s : m.layout) {
+    s.offset = total;
+    total += s.count;
+  }
+  // Move every parameter into one contiguous buffer; the parameters become views of it.
+  torch::NoGradGuard no_grad;
+  m.flat = torch::empty({total}, torch::TensorOptions().dtype(torch::kFloat32).device(m.device));
+  for (size_t i = 0; i < m.parameters.size(); ++i) {
+    torch::Tensor view = m.flat.narrow(0, m.layout[i].offset, m.layout[i].count)
+                             .view(m.parameters[i].sizes());
+    view.copy_(m.parameters[i]);
+    m.parameters[i].set_data(view);
+  }
+  if (!m.on_cpu()) m.host = m.flat.to(torch::kCPU).contiguous();
+}
+
+DeepfakeModel::~DeepfakeModel() = default;
+
+const DeepfakeNetworkOptions& DeepfakeModel::options() const { return impl_->options; }
+const std::vector<TensorSlot>& DeepfakeModel::ParameterLayout() const { return impl_->layout; }
+int64_t DeepfakeModel::num_parameters() const { return impl_->flat.numel(); }
+float* DeepfakeModel::parameters() { return impl_->host_data(); }
+
+void DeepfakeModel::ParametersWritten() {
+  if (!impl_->on_cpu()) {
+    torch::NoGradGuard no_grad;
+    impl_->flat.copy_(impl_->host);
+  }
+}
+
+void DeepfakeModel::ParametersToHost() {
+  if (!impl_->on_cpu()) impl_->host.copy_(impl_->flat);
+}
+
+uint64_t DeepfakeModel::ParameterHash() {
+  ParametersToHost();
+  const auto* bytes = reinterpret_cast<const uint8_t*>(parameters());
+  const size_t n = static_cast<size_t>(num_parameters()) * sizeof(float);
+  uint64_t h = 1469598103934665603ull;
+  for (size_t i = 0; i < n; ++i) {
+    h ^= bytes[i];
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
+                              uint8_t* translated, float* code, float* code_of_translation) {
+  if (count <= 0) return;
+  Impl& m = *impl_;
+  torch::NoGradGuard no_grad;
+  const int size = m.options.size;
+  const torch::Tensor x = FromBytes(images, count, size, m.device);
+  const torch::Tensor z = m.encoder->forward(x);
+  const torch::Tensor y = (decoder == Decoder::kA ? m.decoder_a : m.decoder_b)->forward(z);
+  const int64_t latent = m.options.LatentSize();
+  if (translated) {
+    const torch::Tensor bytes = ToBytes(y);
+    std::memcpy(translated, bytes.data_ptr<uint8_t>(), static_cast<size_t>(bytes.numel()));
+  }
+  if (code) {
+    const torch::Tensor c = z.reshape({count, latent}).contiguous().to(torch::kCPU);
+    std::memcpy(code, c.data_ptr<float>(), sizeof(float) * count * latent);
+  }
+  if (code_of_translation) {
+    // E(D(E(I))) of the translation as stored (quantized to 8 bits), as a file reader would see it.
+    const torch::Tensor yq = y.clamp(0, 1).mul(255.0).round().div(255.0);
+    const torch::Tensor c =
+        m.encoder->forward(yq).reshape({count, latent}).contiguous().to(torch::kCPU);
+    std::memcpy(code_of_translation, c.data_ptr<float>(), sizeof(float) * count * latent);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+struct DeepfakeTrainer::Impl {
+  DeepfakeModel* model = nullptr;
+  DeepfakeLossOptions losses;
+  torch::Tensor gradients;        // on the device, layout of the model
+  torch::Tensor gradients_host;   // host mirror (device other than the CPU)
+  torch::Tensor first_moment, second_moment;            // Adam m, v on the device
+  torch::Tensor first_moment_host, second_moment_host;  // host mirrors
+  std::vector<torch::Tensor> gradient_views;
+  int64_t step = 0;
+
+  DeepfakeModel::Impl& m() { return *model->impl_; }
+  bool on_cpu() { return m().on_cpu(); }
+
+  // Points every parameter's .grad at its slice of the gradient buffer.
+  void AttachGradients() {
+    auto& params = m().parameters;
+    gradient_views.clear();
+    for (size_t i = 0; i < params.size(); ++i) {
+      const TensorSlot& s = m().layout[i];
+      torch::Tensor view = gradients.narrow(0, s.offset, s.count).view(params[i].sizes());
+      params[i].mutable_grad() = view;
+      gradient_views.push_back(view);
+    }
+  }
+  // Autograd accumulates into an existing .grad in place; should it ever have replaced one,
+  // copy the result into the buffer and attach the view again.
+  void GatherGradients() {
+    auto& params = m().parameters;
+    torch::NoGradGuard no_grad;
+    for (size_t i = 0; i < params.size(); ++i) {
+      const torch::Tensor& g = params[i].grad();
+      if (!g.defined()) {
+        gradient_views[i].zero_();
+      } else if (g.data_ptr() != gradient_views[i].data_ptr()) {
+        gradient_views[i].copy_(g);
+      }
+      params[i].mutable_grad() = gradient_views[i];
+    }
+  }
+};
+
+DeepfakeTrainer::DeepfakeTrainer(DeepfakeModel* model, const DeepfakeLossOptions& losses)
+    : impl_(std::make_unique<Impl>()) {
+  std::string why;
+  if (!losses.Check(&why)) throw InvalidInputError("deepfake losses: " + why);
+  Impl& t = *impl_;
+  t.model = model;
+  t.losses = losses;
+  const auto& flat = t.m().flat;
+  t.gradients = torch::zeros_like(flat);
+  t.first_moment = torch::zeros_like(flat);
+  t.second_moment = torch::zeros_like(flat);
+  if (!t.on_cpu()) {
+    t.gradients_host = torch::zeros({flat.numel()}, torch::kFloat32);
+    t.first_moment_host = torch::zeros({flat.numel()}, torch::kFloat32);
+    t.second_moment_host = torch::zeros({flat.numel()}, torch::kFloat32);
+  }
+  t.AttachGradients();
+}
+
+DeepfakeTrainer::~DeepfakeTrainer() = default;
+
+DeepfakeModel& DeepfakeTrainer::model() { return *impl_->model; }
+float* DeepfakeTrainer::gradients() {
+  return impl_->on_cpu() ? impl_->gradients.data_ptr<float>()
+                         : impl_->gradients_host.data_ptr<float>();
+}
+int64_t DeepfakeTrainer::num_gradients() const { return impl_->gradients.numel(); }
+float* DeepfakeTrainer::first_moments() {
+  return impl_->on_cpu() ? impl_->first_moment.data_ptr<float>()
+                         : impl_->first_moment_host.data_ptr<float>();
+}
+float* DeepfakeTrainer::second_moments() {
+  return impl_->on_cpu() ? impl_->second_moment.data_ptr<float>()
+                         : impl_->second_moment_host.data_ptr<float>();
+}
+int64_t DeepfakeTrainer::step() const { return impl_->step; }
+void DeepfakeTrainer::set_step(int64_t step) { impl_->step = step; }
+
+void DeepfakeTrainer::OptimizerStateWritten() {
+  if (!impl_->on_cpu()) {
+    impl_->first_moment.copy_(impl_->first_moment_host);
+    impl_->second_moment.copy_(impl_->second_moment_host);
+  }
+}
+void DeepfakeTrainer::OptimizerStateToHost() {
+  if (!impl_->on_cpu()) {
+    impl_->first_moment_host.copy_(impl_->first_moment);
+    impl_->second_moment_host.copy_(impl_->second_moment);
+  }
+}
+
+DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double share) {
+  Impl& t = *impl_;
+  DeepfakeModel::Impl& m = t.m();
+  const DeepfakeLossOptions& w = t.losses;
+  if (batch.size != m.options.size) {
+    throw InvalidInputError("deepfake: batch images are " + std::to_string(batch.size) +
+                            " pixels, the network takes " + std::to_string(m.options.size));
+  }
+  {
+    torch::NoGradGuard no_grad;
+    t.gradients.zero_();
+  }
+  DeepfakeLosses out;
+  if (batch.count > 0) {
+    const torch::Tensor input_a = FromFloats(batch.input_a, batch.count, batch.size, m.device);
+    const torch::Tensor target_a = FromFloats(batch.target_a, batch.count, batch.size, m.device);
+    const torch::Tensor input_b = FromFloats(batch.input_b, batch.count, batch.size, m.device);
+    const torch::Tensor target_b = FromFloats(batch.target_b, batch.count, batch.size, m.device);
+
+    const torch::Tensor code_a = m.encoder->forward(input_a);   // E(I_A)
+    const torch::Tensor code_b = m.encoder->forward(input_b);   // E(I_B)
+    const torch::Tensor recon_a = m.decoder_a->forward(code_a); // D_A(E(I_A))
+    const torch::Tensor recon_b = m.decoder_b->forward(code_b); // D_B(E(I_B))
+
+    auto reconstruction = [&](const torch::Tensor& y, const torch::Tensor& x) {
+      torch::Tensor loss = torch::zeros({}, y.options());
+      if (w.l1_weight > 0) loss = loss + w.l1_weight * (y - x).abs().mean();
+      if (w.l2_weight > 0) loss = loss + w.l2_weight * (y - x).pow(2).mean();
+      if (w.dssim_weight > 0) loss = loss + w.dssim_weight * Dssim(y, x);
+      return loss;
+    };
+    // f_recon = ||D_A(E(I_A)) - I_A|| + ||D_B(E(I_B)) - I_B||
+    const torch::Tensor recon_loss_a = reconstruction(recon_a, target_a);
+    const torch::Tensor recon_loss_b = reconstruction(recon_b, target_b);
+    // The generators' side of the asymmetric GAN losses (least squares): D_A maximizes f_image
+    // by pushing G_image(D_A(E(I_A))) to 1; E maximizes f_latent by pushing G_latent(E(I_B))
+    // to 1, the score of codes of A, so that B's codes land where D_A can decode them.
+    const torch::Tensor image_adversarial =
+        (1.0 - m.image_discriminator->forward(recon_a)).pow(2).mean();
+    const torch::Tensor latent_adversarial =
+        (1.0 - m.latent_discriminator->forward(code_b)).pow(2).mean();
+    const torch::Tensor generator_loss =
+        (recon_loss_a + recon_loss_b + w.image_gan_weight * image_adversarial +
+         w.latent_gan_weight * latent_adversarial) * share;
+    generator_loss.backward();
+    {
+      // The discriminators learn only from their own losses below.
+      torch::NoGradGuard no_grad;
+      t.gradients.narrow(0, m.generator_count, t.gradients.numel() - m.generator_count).zero_();
+    }
+    // f_image = ||G_image(D_A(E(I_A)))|| + ||1 - G_image(I_A)||
+    const torch::Tensor image_discriminator =
+        m.image_discriminator->forward(recon_a.detach()).pow(2).mean() +
+        (1.0 - m.image_discriminator->forward(target_a)).pow(2).mean();
+    // f_latent = ||G_latent(E(I_B))|| + ||1 - G_latent(E(I_A))||
+    const torch::Tensor latent_discriminator =
+        m.latent_discriminator->forward(code_b.detach()).pow(2).mean() +
+        (1.0 - m.latent_discriminator->forward(code_a.detach())).pow(2).mean();
+    ((image_discriminator + latent_discriminator) * share).backward();
+    t.GatherGradients();
+
+    out.recon_a = recon_loss_a.item<double>() * share;
+    out.recon_b = recon_loss_b.item<double>() * share;
+    out.image_adversarial = image_adversarial.item<double>() * share;
+    out.latent_adversarial = latent_adversarial.item<double>() * share;
+    out.image_discriminator = image_discriminator.item<double>() * share;
+    out.latent_discriminator = latent_discriminator.item<double>() * share;
+  }
+  if (!t.on_cpu()) t.gradients_host.copy_(t.gradients);
+  return out;
+}
+
+void DeepfakeTrainer::OptimizerStep() {
+  Impl& t = *impl_;
+  DeepfakeModel::Impl& m = t.m();
+  torch::NoGradGuard no_grad;
+  if (!t.on_cpu()) t.gradients.copy_(t.gradients_host);
+  ++t.step;
+  const double b1 = t.losses.beta1, b2 = t.losses.beta2, eps = 1e-8;
+  const double bias1 = 1.0 - std::pow(b1, static_cast<double>(t.step));
+  const double bias2 = 1.0 - std::pow(b2, static_cast<double>(t.step));
+  const int64_t n = m.flat.numel(), g = m.generator_count;
+  // Adam, the generators (E, D_A, D_B) and the discriminators with their own learning rates.
+  for (const auto& [begin, count, lr] :
+       {std::tuple<int64_t, int64_t, double>{0, g, t.losses.learning_rate},
+        std::tuple<int64_t, int64_t, double>{g, n - g, t.losses.discriminator_learning_rate}}) {
+    if (count == 0) continue;
+    torch::Tensor p = m.flat.narrow(0, begin, count);
+    torch::Tensor grad = t.gradients.narrow(0, begin, count);
+    torch::Tensor mom1 = t.first_moment.narrow(0, begin, count);
+    torch::Tensor mom2 = t.second_moment.narrow(0, begin, count);
+    mom1.mul_(b1).add_(grad, 1.0 - b1);
+    mom2.mul_(b2).addcmul_(grad, grad, 1.0 - b2);
+    const torch::Tensor denominator = (mom2.sqrt() / std::sqrt(bias2)).add_(eps);
+    p.addcdiv_(mom1, denominator, -lr / bias1);
+  }
+  if (!t.on_cpu()) m.host.copy_(m.flat);
+}
+
+Image8 DeepfakeTrainer::PreviewGrid(const uint8_t* images_a, const uint8_t* images_b, int count) {
+  DeepfakeModel::Impl& m = impl_->m();
+  const int s = m.options.size;
+  Image8 grid(5 * s, std::max(1, count) * s, 3);
+  if (count <= 0) return grid;
+  torch::NoGradGuard no_grad;
+  const torch::Tensor xa = FromBytes(images_a, count, s, m.device);
+  const torch::Tensor xb = FromBytes(images_b, count, s, m.device);
+  const torch::Tensor code_b = m.encoder->forward(xb);
+  const std::vector<torch::Tensor> columns = {
+      xa, m.decoder_a->forward(m.encoder->forward(xa)), xb, m.decoder_b->forward(code_b),
+      m.decoder_a->forward(code_b)};
+  for (int c = 0; c < 5; ++c) {
+    const torch::Tensor bytes = ToBytes(columns[c]);
+    const uint8_t* p = bytes.data_ptr<uint8_t>();
+    for (int i = 0; i < count; ++i) {
+      for (int y = 0; y < s; ++y) {
+        std::memcpy(grid.pixel(c * s, i * s + y), p + (static_cast<size_t>(i) * s + y) * s * 3,
+                    static_cast<size_t>(s) * 3);
+      }
+    }
+  }
+  return grid;
+}
+
+}  // namespace facecap::nn

@@ -1,0 +1,196 @@
+// The deepfake of paper 000 Sec. 4: one encoder E and two decoders D_A, D_B trained without
+// pairs on images of domain A (synthetic segmentation renders) and domain B (real frames), with
+// an image discriminator G_image on D_A's outputs and a latent discriminator G_latent on E's
+// codes (the asymmetric GAN losses f_image and f_latent), so that D_A(E(I_B)) shows a real
+// frame in the rig's segmentation style.
+//
+// Torch stays inside nn/*.cpp: DeepfakeModel and DeepfakeTrainer are pimpl classes over plain
+// float buffers. Every parameter of the five networks lives in ONE contiguous buffer, and so
+// does every gradient, in the same layout (ParameterLayout()). Training is split the way a
+// data-parallel controller needs it:
+//
+//   trainer.Backward(batch, share);            // local gradients into trainer.gradients()
+//   comm.SumReduce(trainer.gradients(), n);    // the controller (stages/) sums over ranks
+//   trainer.OptimizerStep();                   // Adam on the summed gradients
+//
+// With the same parameters and the same summed gradients, OptimizerStep gives bitwise the same
+// parameters on every rank. There is no MPI here.
+#ifndef FACECAP_NN_DEEPFAKE_H_
+#define FACECAP_NN_DEEPFAKE_H_
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "util/image.h"
+
+namespace facecap::nn {
+
+// The architecture; stored beside the weights so that a model file rebuilds its networks.
+struct DeepfakeNetworkOptions {
+  int size = 64;                  // image width and height in pixels (a power of two, >= 16)
+  int encoder_width = 32;         // channels of E's first level; doubled at every level down
+  int latent_resolution = 8;      // side of the spatial code E(I) (a power of two < size)
+  int latent_channels = 32;       // channels of the code E(I): its size is channels x res^2
+  int decoder_width = 32;         // channels of D_A/D_B's last level; doubled at every level up
+  int discriminator_width = 32;   // channels of G_image's first level, and of G_latent
+
+  template <class V>
+  void Visit(V&& v) {
+    v("size", size, "image width and height in pixels (a power of two, 16 or more)");
+    v("encoder_width", encoder_width, "channels of the encoder's first level, doubled per level");
+    v("latent_resolution", latent_resolution, "side of the spatial latent code E(I)");
+    v("latent_channels", latent_channels, "channels of the latent code E(I)");
+    v("decoder_width", decoder_width, "channels of the decoders' last level, doubled per level up");
+    v("discriminator_width", discriminator_width, "channels of the discriminators");
+  }
+  bool Check(std::string* why) const;
+  int64_t LatentSize() const {
+    return static_cast<int64_t>(latent_channels) * latent_resolution * latent_resolution;
+  }
+};
+
+// Loss weights and the optimizer (paper 000 Sec. 4: f_recon, f_image, f_latent).
+struct DeepfakeLossOptions {
+  float l1_weight = 1.f;              // weight of the L1 term of f_recon
+  float l2_weight = 0.f;              // weight of the L2 term of f_recon
+  float dssim_weight = 1.f;           // weight of the DSSIM term of f_recon ((1 - SSIM) / 2)
+  float image_gan_weight = 0.02f;     // weight of D_A's adversarial term (against G_image)
+  float latent_gan_weight = 0.02f;    // weight of E's adversarial term (against G_latent)
+  float learning_rate = 5e-4f;        // Adam step of E, D_A, D_B
+  float discriminator_learning_rate = 2e-4f;  // Adam step of G_image, G_latent
+  float beta1 = 0.5f;                 // Adam first-moment decay
+  float beta2 = 0.999f;               // Adam second-moment decay
+
+  template <class V>
+  void Visit(V&& v) {
+    v("l1_weight", l1_weight, "weight of the L1 reconstruction term");
+    v("l2_weight", l2_weight, "weight of the L2 reconstruction term");
+    v("dssim_weight", dssim_weight, "weight of the DSSIM reconstruction term");
+    v("image_gan_weight", image_gan_weight, "weight of D_A's adversarial loss against G_image");
+    v("latent_gan_weight", latent_gan_weight, "weight of E's adversarial loss against G_latent");
+    v("learning_rate", learning_rate, "Adam learning rate of the encoder and decoders");
+    v("discriminator_learning_rate", discriminator_learning_rate,
+      "Adam learning rate of the discriminators");
+    v("beta1", beta1, "Adam first-moment decay");
+    v("beta2", beta2, "Adam second-moment decay");
+  }
+  bool Check(std::string* why) const;
+};
+
+// One parameter (or gradient, or Adam moment) inside the contiguous buffers.
+struct TensorSlot {
+  std::string name;            // module path: "encoder/down0/weight"
+  std::vector<int64_t> shape;  // e.g. [32, 3, 5, 5]
+  int64_t offset = 0;          // first element in the buffer
+  int64_t count = 0;           // number of elements
+};
+
+// Training images after augmentation: float RGB in [0, 1], [count, size, size, 3] each.
+struct TrainingBatch {
+  int count = 0;
+  int size = 0;
+  std::vector<float> input_a, target_a;  // I_A warped (input) and unwarped (target)
+  std::vector<float> input_b, target_b;  // I_B likewise
+};
+
+// The terms of one training step (means over the batch, summed over ranks by the caller when
+// each rank passes its share).
+struct DeepfakeLosses {
+  double recon_a = 0;               // ||D_A(E(I_A)) - I_A||
+  double recon_b = 0;               // ||D_B(E(I_B)) - I_B||
+  double image_adversarial = 0;     // D_A's term: G_image(D_A(E(I_A))) pushed to 1
+  double latent_adversarial = 0;    // E's term: G_latent(E(I_B)) pushed to 1 (looks like A)
+  double image_discriminator = 0;   // f_image = ||G_image(D_A(E(I_A)))|| + ||1 - G_image(I_A)||
+  double latent_discriminator = 0;  // f_latent = ||G_latent(E(I_B))|| + ||1 - G_latent(E(I_A))||
+  static constexpr int kCount = 6;
+  void ToArray(double* v) const;
+  void FromArray(const double* v);
+};
+
+// Uses `threads` intra-op threads in torch (and one inter-op thread).
+void SetTorchThreads(int threads);
+// True when libtorch was built with CUDA and a device is present.
+bool CudaAvailable();
+
+// The five networks, their parameters in one buffer, and inference.
+class DeepfakeModel {
+ public:
+  // Builds the networks with weights drawn from `init_seed` on `device` ("cpu" or "cuda";
+  // InvalidInputError when CUDA is asked for and not available).
+  DeepfakeModel(const DeepfakeNetworkOptions& options, uint64_t init_seed,
+                const std::string& device = "cpu");
+  ~DeepfakeModel();
+  DeepfakeModel(const DeepfakeModel&) = delete;
+  DeepfakeModel& operator=(const DeepfakeModel&) = delete;
+
+  const DeepfakeNetworkOptions& options() const;
+  // Every parameter of E, D_A, D_B, G_image, G_latent, in this order.
+  const std::vector<TensorSlot>& ParameterLayout() const;
+  int64_t num_parameters() const;
+  // The contiguous parameter buffer in host memory. After writing into it (a broadcast, a
+  // checkpoint) call ParametersWritten(); before reading it after training on a device call
+  // ParametersToHost() (both do nothing on the CPU, where the buffer is the weights).
+  float* parameters();
+  void ParametersWritten();
+  void ParametersToHost();
+  // FNV-1a hash of the parameter bytes (to compare ranks).
+  uint64_t ParameterHash();
+
+  enum class Decoder { kA, kB };
+  // For `count` uint8 RGB images [count, size, size, 3] (size == options().size): the
+  // translation D(E(I)) as uint8 [count, size, size, 3], E(I) and E(D(E(I))) as
+  // [count, LatentSize()] (paper 000 Sec. 9 regresses on the latter). Null outputs are skipped.
+  void Translate(const uint8_t* images, int count, Decoder decoder, uint8_t* translated,
+                 float* code, float* code_of_translation);
+
+ private:
+  friend class DeepfakeTrainer;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Gradients in one buffer and Adam, over a DeepfakeModel.
+class DeepfakeTrainer {
+ public:
+  DeepfakeTrainer(DeepfakeModel* model, const DeepfakeLossOptions& losses);
+  ~DeepfakeTrainer();
+  DeepfakeTrainer(const DeepfakeTrainer&) = delete;
+  DeepfakeTrainer& operator=(const DeepfakeTrainer&) = delete;
+
+  DeepfakeModel& model();
+  // The gradient buffer (host memory, ParameterLayout() of the model): Backward fills it with
+  // this rank's gradients, the caller may sum it over ranks, OptimizerStep applies it.
+  float* gradients();
+  int64_t num_gradients() const;
+  // Forward and backward on one batch: E, D_A, D_B get the gradients of
+  // f_recon + image_gan_weight * (D_A's adversarial term) + latent_gan_weight * (E's term);
+  // G_image and G_latent the gradients of f_image and f_latent (on detached inputs).
+  // Every loss is multiplied by `share` (this rank's fraction of the global batch), so that
+  // the sum over ranks is the gradient of the global batch mean.
+  DeepfakeLosses Backward(const TrainingBatch& batch, double share = 1.0);
+  // One Adam step on the gradient buffer; increments step().
+  void OptimizerStep();
+
+  // Adam state, ParameterLayout() of the model: first and second moments and the step count.
+  float* first_moments();
+  float* second_moments();
+  int64_t step() const;
+  void set_step(int64_t step);
+  // After writing the moments (a checkpoint).
+  void OptimizerStateWritten();
+  void OptimizerStateToHost();
+
+  // The preview grid of paper 000 Fig. 6: one row per image pair, columns
+  // I_A, D_A(E(I_A)), I_B, D_B(E(I_B)), D_A(E(I_B)). Images uint8 [count, size, size, 3].
+  Image8 PreviewGrid(const uint8_t* images_a, const uint8_t* images_b, int count);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace facecap::nn
+
+#endif  // FACECAP_NN_DEEPFAKE_H_

@@ -1,0 +1,416 @@
+// facecap curate build | query: the hierarchical clustering of paper 000 Sec. 3 over the
+// frames of an ingest output, and queries against it (by frame, by image, by a folder of
+// synthetic renders: the turntable matching of Sec. 5.2, or by every face of another ingest
+// output), with a contact sheet of each query beside its picks.
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <unordered_set>
+
+#include "curate/cluster_tree.h"
+#include "curate/features.h"
+#include "face/align.h"
+#include "face/face_analyzer.h"
+#include "face/frame_source.h"
+#include "io/hdf5.h"
+#include "io/image_io.h"
+#include "render/contact_sheet.h"
+#include "stages/cli.h"
+#include "stages/registry.h"
+#include "util/errors.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+namespace {
+
+using curate::FeatureKind;
+using curate::FeatureMatrix;
+
+// [curate.build]
+struct CurateBuildOptions {
+  std::string frames = "frames.h5";      // ingest output
+  std::string out = "curation.h5";       // output file
+  std::vector<std::string> levels = {"pose", "lighting", "expression"};  // f_1 ... f_n
+  std::vector<int> clusters = {9, 3};    // k_1 ... k_{n-1}
+  int seed = 1;                          // k-means++ seed
+  int max_iterations = 50;               // Lloyd iterations at most
+  int threads = 0;                       // OpenMP threads for the features (0: all)
+
+  template <class V>
+  void Visit(V&& v) {
+    v("frames", frames, "ingest output (frames.h5) whose faces are clustered");
+    v("out", out, "output file (HDF5) with the features and the cluster tree");
+    v("levels", levels, "features of the tree's levels, top first: pose, lighting, expression "
+                        "(the last level is flat)");
+    v("clusters", clusters, "k-means clusters per node for every level but the last");
+    v("seed", seed, "seed of the k-means++ initialisation");
+    v("max_iterations", max_iterations, "k-means (Lloyd) iterations at most");
+    v("threads", threads, "OpenMP threads for the features (0: all available)");
+  }
+  bool Check(std::string* why) const {
+    if (frames.empty() || out.empty()) { *why = "frames and out must name files"; return false; }
+    try {
+      for (const auto& l : levels) curate::ParseFeatureKind(l);
+    } catch (const InvalidInputError& e) {
+      *why = std::string("levels: ") + e.what();
+      return false;
+    }
+    if (seed < 0) { *why = "seed must be >= 0"; return false; }
+    if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    curate::ClusterTreeOptions t{clusters, static_cast<uint64_t>(seed), max_iterations};
+    return t.Check(static_cast<int>(levels.size()), why);
+  }
+};
+
+// [curate.query]
+struct CurateQueryOptions {
+  std::string curation = "curation.h5";  // output of curate build
+  std::string frames;                    // its ingest output ("": the one it was built from)
+  int64_t frame = -1;                    // query by this frame of the ingest output
+  std::string image;                     // or by a face in this image
+  std::string renders;                   // or by every image in this folder (turntable)
+  std::string query_frames;              // or by every face of another ingest output
+  std::vector<int> picks = {2, 3, 1};    // q_1 ... q_n
+  std::string out = "picks.h5";          // output: the picked frames
+  std::string sheet;                     // contact sheet PNG ("": none)
+  std::string landmark_model = face::kDefaultLandmarkModel;  // for image and renders queries
+  int sheet_rows = 48;                   // queries shown on the sheet at most
+
+  template <class V>
+  void Visit(V&& v) {
+    v("curation", curation, "curation file from `facecap curate build`");
+    v("frames", frames, "its ingest output (default: the file the tree was built from)");
+    v("frame", frame, "query with this frame (row) of the ingest output");
+    v("image", image, "query with the face in this image");
+    v("renders", renders, "query with every image of this folder, e.g. synthetic turntable "
+                          "renders; returns the unique frames");
+    v("query_frames", query_frames, "query with every face of another ingest output");
+    v("picks", picks, "q_1 ... q_n: nodes kept per level and frames per leaf (paper: 2, 3, 1)");
+    v("out", out, "output file (HDF5) with the picked frames");
+    v("sheet", sheet, "contact sheet PNG: each query's crop beside its picks");
+    v("landmark_model", landmark_model, "dlib 68-point model for image and renders queries");
+    v("sheet_rows", sheet_rows, "queries shown on the contact sheet at most");
+  }
+  bool Check(std::string* why) const {
+    const int given = (frame >= 0) + !image.empty() + !renders.empty() + !query_frames.empty();
+    if (given != 1) {
+      *why = "give exactly one query: frame, image, renders or query_frames";
+      return false;
+    }
+    for (int q : picks) if (q < 1) { *why = "each pick count must be >= 1"; return false; }
+    if (out.empty()) { *why = "out must name a file"; return false; }
+    if (sheet_rows < 1) { *why = "sheet_rows must be >= 1"; return false; }
+    return true;
+  }
+};
+
+// Found frames of an ingest output: their rows, crops and crop landmarks, read in blocks.
+struct FoundFrames {
+  std::vector<int64_t> rows;
+  std::vector<Image8> crops;
+  std::vector<face::Landmarks> landmarks;
+};
+
+std::vector<int64_t> FoundRows(const io::H5File& f) {
+  const std::vector<uint8_t> found = f.ReadVector<uint8_t>("/frames/found");
+  std::vector<int64_t> rows;
+  for (int64_t i = 0; i < static_cast<int64_t>(found.size()); ++i) if (found[i]) rows.push_back(i);
+  return rows;
+}
+
+void ReadFrame(const io::H5File& f, int64_t row, int size, Image8* crop, face::Landmarks* l) {
+  *crop = Image8(size, size, 3);
+  f.ReadFrames<uint8_t>("/frames/crop", row, 1, crop->data.data());
+  f.ReadFrames<float>("/frames/landmarks_crop", row, 1, l->data());
+}
+
+int CropSize(const io::H5File& f) {
+  const io::Shape s = f.CheckShape("/frames/crop", {-1, -1, -1, 3});
+  if (s[1] != s[2]) throw FileIOError(f.path() + ": /frames/crop is not square");
+  return static_cast<int>(s[1]);
+}
+
+std::vector<Eigen::VectorXf> QueryFeatures(const curate::FeatureTable& t, int row,
+                                           const std::vector<FeatureKind>& kinds) {
+  std::vector<Eigen::VectorXf> q;
+  for (FeatureKind k : kinds) q.push_back(t.Of(k).row(row).transpose());
+  return q;
+}
+
+void RunCurateBuild(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<CurateBuildOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;  // about a second of work for 10,000 frames: rank 0 alone
+  const auto t0 = std::chrono::steady_clock::now();
+  const io::H5File in = io::H5File::OpenRead(o.frames);
+  const int size = CropSize(in);
+  const std::vector<int64_t> rows = FoundRows(in);
+  if (rows.empty()) {
+    throw FileIOError(o.frames + ": no frame with a face to curate (see /frames/status)");
+  }
+  // Features in blocks, so that crops of long clips never sit in memory at once.
+  const int64_t n = static_cast<int64_t>(rows.size());
+  curate::FeatureTable table;
+  table.pose.resize(n, curate::kPoseDims);
+  table.lighting.resize(n, curate::kLightingDims);
+  table.expression.resize(n, curate::kExpressionDims);
+  constexpr int64_t kBlock = 512;
+  for (int64_t begin = 0; begin < n; begin += kBlock) {
+    const int64_t count = std::min(kBlock, n - begin);
+    std::vector<Image8> crops(count);
+    std::vector<face::Landmarks> landmarks(count);
+    std::vector<const Image8*> crop_ptrs(count);
+    // One read of the rows' span (chunks decompress once), then the found rows from it.
+    const int64_t first = rows[begin], span = rows[begin + count - 1] - first + 1;
+    const int64_t crop_bytes = static_cast<int64_t>(size) * size * 3;
+    std::vector<uint8_t> span_crops(span * crop_bytes);
+    std::vector<float> span_landmarks(span * face::kNumLandmarks * 2);
+    in.ReadFrames<uint8_t>("/frames/crop", first, span, span_crops.data());
+    in.ReadFrames<float>("/frames/landmarks_crop", first, span, span_landmarks.data());
+    for (int64_t j = 0; j < count; ++j) {
+      const int64_t k = rows[begin + j] - first;
+      crops[j] = Image8(size, size, 3);
+      std::copy_n(span_crops.begin() + k * crop_bytes, crop_bytes, crops[j].data.begin());
+      std::copy_n(span_landmarks.begin() + k * face::kNumLandmarks * 2, face::kNumLandmarks * 2,
+                  landmarks[j].data());
+      crop_ptrs[j] = &crops[j];
+    }
+    const curate::FeatureTable block = curate::ComputeFeatures(crop_ptrs, landmarks, o.threads);
+    table.pose.middleRows(begin, count) = block.pose;
+    table.lighting.middleRows(begin, count) = block.lighting;
+    table.expression.middleRows(begin, count) = block.expression;
+  }
+  const auto t1 = std::chrono::steady_clock::now();
+  std::vector<FeatureMatrix> levels;
+  for (const std::string& name : o.levels) levels.push_back(table.Of(curate::ParseFeatureKind(name)));
+  const curate::ClusterTreeOptions tree_options{o.clusters, static_cast<uint64_t>(o.seed), o.max_iterations};
+  const curate::ClusterTree tree = curate::ClusterTree::Build(levels, tree_options);
+  const auto t2 = std::chrono::steady_clock::now();
+
+  io::H5File f = io::H5File::CreateAtomic(o.out);
+  f.WriteProvenance(MakeProvenance(ctx, "curate build", resolved));
+  f.SetAttribute("/", "frames_file", std::filesystem::absolute(o.frames).string());
+  f.WriteVector("/features/frame", rows);
+  f.SetAttribute("/features/frame", "meaning", std::string("row of the ingest output's /frames"));
+  f.WriteMatrix("/features/pose", table.pose);
+  f.SetAttribute("/features/pose", "columns", std::string("pitch, yaw (degrees; pitch > 0 face up, yaw > 0 face to its left)"));
+  f.WriteMatrix("/features/lighting", table.lighting);
+  f.SetAttribute("/features/lighting", "layout", std::string("4 rows x 3 columns x RGB of the nose crop, [0, 1]"));
+  f.WriteMatrix("/features/expression", table.expression);
+  f.SetAttribute("/features/expression", "layout", std::string("aligned minus template (x, y) of 17-21+36-41, 22-26+42-47, 48-67"));
+  f.WriteStrings("/tree/levels", o.levels);
+  for (size_t l = 0; l < tree.levels().size(); ++l) {
+    const curate::ClusterLevel& L = tree.levels()[l];
+    const std::string g = "/tree/level_" + std::to_string(l);
+    f.WriteMatrix(g + "/centers", L.centers);
+    f.WriteVector(g + "/parent", L.parent);
+    f.WriteVector(g + "/first_child", L.first_child);
+  }
+  f.WriteVector("/tree/leaf_items", tree.leaf_items());
+  f.SetAttribute("/tree/leaf_items", "meaning", std::string("rows of /features grouped by node of the last clustered level"));
+  f.Commit();
+  FC_INFO("curate build: {} frames with a face of {}: features {:.3f} s, tree {:.3f} s ({} levels, "
+          "{} leaf nodes) -> {}", n, o.frames, std::chrono::duration<double>(t1 - t0).count(),
+          std::chrono::duration<double>(t2 - t1).count(), tree.NumLevels(),
+          tree.levels().empty() ? 1 : tree.levels().back().centers.rows(), o.out);
+}
+
+struct Curation {
+  std::vector<FeatureKind> kinds;
+  std::vector<int64_t> frame_of_item;  // row of /frames per tree item
+  curate::ClusterTree tree;
+  std::string frames_file;
+};
+
+Curation ReadCuration(const std::string& path) {
+  const io::H5File f = io::H5File::OpenRead(path);
+  Curation c;
+  for (const std::string& name : f.ReadStrings("/tree/levels")) c.kinds.push_back(curate::ParseFeatureKind(name));
+  c.frame_of_item = f.ReadVector<int64_t>("/features/frame");
+  c.frames_file = f.GetStringAttribute("/", "frames_file");
+  std::vector<curate::ClusterLevel> levels(c.kinds.size() - 1);
+  for (size_t l = 0; l < levels.size(); ++l) {
+    const std::string g = "/tree/level_" + std::to_string(l);
+    levels[l].centers = f.ReadMatrix<float>(g + "/centers", -1, curate::FeatureDims(c.kinds[l]));
+    levels[l].parent = f.ReadVector<int32_t>(g + "/parent");
+    levels[l].first_child = f.ReadVector<int32_t>(g + "/first_child");
+  }
+  const std::string flat = std::string("/features/") + curate::FeatureName(c.kinds.back());
+  FeatureMatrix flat_features = f.ReadMatrix<float>(flat, static_cast<int64_t>(c.frame_of_item.size()),
+                                                    curate::FeatureDims(c.kinds.back()));
+  c.tree = curate::ClusterTree::FromParts(std::move(levels), f.ReadVector<int64_t>("/tree/leaf_items"),
+                                          std::move(flat_features));
+  return c;
+}
+
+// One query: its crop (for the sheet), features and a label.
+struct QueryItem {
+  std::string label;
+  Image8 crop;
+  face::Landmarks landmarks;
+};
+
+void RunCurateQuery(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<CurateQueryOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  const Curation c = ReadCuration(o.curation);
+  if (static_cast<int>(o.picks.size()) != c.tree.NumLevels()) {
+    throw InvalidInputError("[curate.query] picks needs " + std::to_string(c.tree.NumLevels()) +
+                            " counts for the tree's levels, got " + std::to_string(o.picks.size()));
+  }
+  const std::string frames_path = o.frames.empty() ? c.frames_file : o.frames;
+  const io::H5File frames = io::H5File::OpenRead(frames_path);
+  const int size = CropSize(frames);
+  const face::CropOptions crop_options{
+      size, frames.HasAttribute("/", "crop_padding") ? frames.GetDoubleAttribute("/", "crop_padding") : 0.25};
+
+  std::vector<QueryItem> queries;
+  if (o.frame >= 0) {
+    const std::vector<uint8_t> found = frames.ReadVector<uint8_t>("/frames/found");
+    if (o.frame >= static_cast<int64_t>(found.size())) {
+      throw InvalidInputError("[curate.query] frame " + std::to_string(o.frame) + " is outside " +
+                              frames_path + " (" + std::to_string(found.size()) + " frames)");
+    }
+    if (!found[o.frame]) {
+      throw InvalidInputError("[curate.query] frame " + std::to_string(o.frame) + " of " + frames_path +
+                              " has no face (see /frames/status)");
+    }
+    QueryItem q;
+    q.label = "frame " + std::to_string(o.frame);
+    ReadFrame(frames, o.frame, size, &q.crop, &q.landmarks);
+    queries.push_back(std::move(q));
+  } else if (!o.query_frames.empty()) {
+    const io::H5File other = io::H5File::OpenRead(o.query_frames);
+    const int other_size = CropSize(other);
+    for (int64_t row : FoundRows(other)) {
+      QueryItem q;
+      q.label = o.query_frames + " frame " + std::to_string(row);
+      ReadFrame(other, row, other_size, &q.crop, &q.landmarks);
+      queries.push_back(std::move(q));
+    }
+  } else {
+    std::vector<std::string> files;
+    if (!o.image.empty()) {
+      files.push_back(o.image);
+    } else {
+      auto source = face::FrameSource::OpenImages(o.renders, 40000000);
+      files = source->Files();
+    }
+    face::FaceAnalyzerOptions ao;
+    ao.landmark_model = o.landmark_model;
+    face::FaceAnalyzer analyzer(ao);
+    int64_t skipped = 0;
+    for (const std::string& file : files) {
+      const face::DecodedFrame d = face::ReadImageFile(file, 40000000);
+      if (!d.ok) {
+        if (!o.image.empty()) throw FileIOError(d.error);
+        FC_WARN("curate query: skipping {}", d.error);
+        ++skipped;
+        continue;
+      }
+      const std::vector<face::FaceBox> faces = analyzer.Detect(d.image);
+      if (faces.empty()) {
+        if (!o.image.empty()) throw FileIOError(file + ": no face found in the query image");
+        ++skipped;
+        continue;
+      }
+      const face::AlignedCrop crop =
+          face::AlignFace(d.image, analyzer.FitLandmarks(d.image, faces[0]), crop_options);
+      queries.push_back(QueryItem{file, crop.image, crop.landmarks});
+    }
+    if (skipped) FC_WARN("curate query: {} of {} images gave no face and were skipped", skipped, files.size());
+  }
+  if (queries.empty()) throw FileIOError("curate query: no query face (no image gave a face)");
+
+  // Features of the queries, then the tree.
+  std::vector<const Image8*> crop_ptrs;
+  std::vector<face::Landmarks> landmarks;
+  for (const QueryItem& q : queries) {
+    crop_ptrs.push_back(&q.crop);
+    landmarks.push_back(q.landmarks);
+  }
+  const curate::FeatureTable features = curate::ComputeFeatures(crop_ptrs, landmarks, 0);
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<std::vector<int64_t>> per_query(queries.size());
+  for (size_t i = 0; i < queries.size(); ++i) {
+    for (int64_t item : c.tree.Query(QueryFeatures(features, static_cast<int>(i), c.kinds), o.picks)) {
+      per_query[i].push_back(c.frame_of_item[item]);
+    }
+  }
+  const double query_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::vector<int64_t> unique;
+  std::unordered_set<int64_t> seen;
+  std::vector<int64_t> offsets{0}, all;
+  for (const auto& p : per_query) {
+    for (int64_t row : p) if (seen.insert(row).second) unique.push_back(row);
+    all.insert(all.end(), p.begin(), p.end());
+    offsets.push_back(static_cast<int64_t>(all.size()));
+  }
+  const std::vector<int64_t> source_index = frames.ReadVector<int64_t>("/frames/source_index");
+  std::vector<int64_t> unique_source;
+  for (int64_t row : unique) unique_source.push_back(source_index[row]);
+
+  io::H5File out = io::H5File::CreateAtomic(o.out);
+  out.WriteProvenance(MakeProvenance(ctx, "curate query", resolved));
+  out.SetAttribute("/", "frames_file", std::filesystem::absolute(frames_path).string());
+  out.WriteVector("/picks/frames", unique);
+  out.SetAttribute("/picks/frames", "meaning", std::string("rows of the ingest output's /frames, unique, in query order"));
+  out.WriteVector("/picks/source_index", unique_source);
+  out.WriteVector("/queries/picks", all);
+  out.WriteVector("/queries/offsets", offsets);
+  out.SetAttribute("/queries/picks", "meaning", std::string("query i picked /queries/picks[offsets[i] : offsets[i+1]]"));
+  std::vector<std::string> labels;
+  for (const QueryItem& q : queries) labels.push_back(q.label);
+  out.WriteStrings("/queries/labels", labels);
+  out.WriteMatrix("/queries/pose", features.pose);
+  out.Commit();
+
+  if (!o.sheet.empty()) {
+    size_t columns = 1;
+    for (const auto& p : per_query) columns = std::max(columns, p.size() + 1);
+    std::vector<Image8> tiles;
+    const size_t rows = std::min<size_t>(queries.size(), static_cast<size_t>(o.sheet_rows));
+    for (size_t i = 0; i < rows; ++i) {
+      tiles.push_back(queries[i].crop);
+      for (size_t j = 0; j + 1 < columns; ++j) {
+        Image8 tile(size, size, 3, 0);
+        face::Landmarks unused;
+        if (j < per_query[i].size()) ReadFrame(frames, per_query[i][j], size, &tile, &unused);
+        tiles.push_back(std::move(tile));
+      }
+    }
+    render::ContactSheetOptions sheet_options;
+    sheet_options.columns = static_cast<int>(columns);
+    sheet_options.border = 2;
+    sheet_options.border_value = {40, 40, 40};
+    io::WriteImage(o.sheet, render::ContactSheet(tiles, sheet_options));
+    FC_INFO("curate query: contact sheet (query | picks, one row per query) -> {}", o.sheet);
+  }
+  FC_INFO("curate query: {} quer{} -> {} unique frames ({:.3f} ms per query in the tree) -> {}",
+          queries.size(), queries.size() == 1 ? "y" : "ies", unique.size(),
+          1000.0 * query_s / queries.size(), o.out);
+}
+
+}  // namespace
+
+void RegisterCurate(CLI::App* app, AppState* state) {
+  CLI::App* curate = app->add_subcommand("curate", "Curate frames: features and the hierarchical "
+                                                   "cluster tree (paper 000 Sec. 3), and queries");
+  curate->require_subcommand(1);
+  AddStage<CurateBuildOptions>(
+      curate, state, "build", "curate.build", "curate build",
+      "Features f_pose, f_lighting, f_expression of every face in an ingest output and the tree "
+      "of k-means levels over them (default: 9 pose clusters, 3 lighting clusters each, flat "
+      "expression)",
+      RunCurateBuild);
+  AddStage<CurateQueryOptions>(
+      curate, state, "query", "curate.query", "curate query",
+      "Frames that match a query (a frame, an image, a folder of renders, or another ingest "
+      "output) with q_1..q_n picks per level; writes their indices and a contact sheet",
+      RunCurateQuery);
+}
+
+}  // namespace facecap::stages

@@ -1,0 +1,182 @@
+// Inverse-rendering tracker (paper 000 Sec. 8): per frame,
+//
+//   argmin_{P_rigid, w in [0,1]^S}  || F_seg(P_rigid, w) - T ||^2  +  lambda ||w||^2
+//
+// with F_seg the soft segmentation render of the posed rig (soft_segmentation.h), T the target
+// segmentation image in the rig's image frame, the pixel-wise L2 distance of the paper and an
+// optional small L2 prior towards the neutral for the shapes a segmentation image barely shows
+// (tongue, cheek puff). Block coordinate descent as in the paper: each epoch solves the rigid
+// pose, then the jaw controls (shapes with jaw skinning), then the remaining controls, each
+// block a bounded Ceres trust-region solve with the others fixed. Optional coarse-to-fine
+// levels solve on downsampled targets first.
+//
+// The pixel residual has 3 x #pixels entries but only the pixels along borders have non-zero
+// derivatives; each block's cost is handed to Ceres in Gauss-Newton-compressed form: with
+// J^T J = L L^T (Cholesky) and b = J^T r, the residual [L^{-1} b; sqrt(|r|^2 - |L^{-1} b|^2)]
+// with Jacobian [L^T; 0] has exactly the cost |r|^2, gradient and Gauss-Newton Hessian of the
+// full pixel residual, at a size of (block + 1) instead of 3 x #pixels.
+//
+// A baseline objective fits the rig's 68 landmarks to 2D target landmarks (the classic
+// approach) with the same parametrization and blocks; it also gives the pose initialisation
+// "from landmarks" (paper Sec. 3).
+//
+// Every solve runs single-threaded and depends only on its inputs: the same frame gives the
+// same result bit for bit whatever the number of ranks or threads around it.
+#ifndef FACECAP_TRACK_TRACKER_H_
+#define FACECAP_TRACK_TRACKER_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "render/camera.h"
+#include "rig/evaluate.h"
+#include "rig/pose.h"
+#include "rig/rig.h"
+#include "track/soft_segmentation.h"
+#include "util/image.h"
+
+namespace facecap::track {
+
+struct TrackerOptions {
+  // What the solve matches: "segmentation" (pixel-wise L2 against the target image) or
+  // "landmarks" (2D landmark reprojection error, the landmarks-only baseline).
+  std::string objective = "segmentation";
+  // Epochs of block coordinate descent at the finest level.
+  int epochs = 3;
+  // Epochs at each coarser level (coarse-to-fine).
+  int coarse_epochs = 2;
+  // Resolution levels: 1 solves at the target's size only; L > 1 first solves at 1 / 2^(L-1)
+  // of it, then doubles the resolution up to the full size.
+  int levels = 2;
+  // Ceres iterations per block solve: the rigid pose, the jaw controls, the rest.
+  int pose_iterations = 5;
+  int jaw_iterations = 4;
+  int expression_iterations = 6;
+  // Solve roll and the uniform scale of P_rigid besides pitch, yaw and translation.
+  bool solve_roll = true;
+  bool solve_scale = false;
+  // lambda of the L2 prior lambda |w|^2 towards the neutral on the solved weights, relative
+  // to the pixel cost (sum of squared RGB differences in [0, 1]). 0 turns it off.
+  float weight_prior = 0.02f;
+  // Ceres trust-region stopping: relative cost decrease below which a block stops.
+  double function_tolerance = 1e-4;
+  // Soft render: half-width of the antialiased band around region borders and silhouettes
+  // (pixels, at every level), background colour, visibility tolerance.
+  SoftSegmentationOptions soft;
+
+  template <class V>
+  void Visit(V&& v) {
+    v("objective", objective, "what the solve matches: segmentation | landmarks");
+    v("epochs", epochs, "epochs of block coordinate descent (pose, jaw, rest) at full resolution");
+    v("coarse_epochs", coarse_epochs, "epochs at each coarser level");
+    v("levels", levels, "coarse-to-fine levels (1: full resolution only)");
+    v("pose_iterations", pose_iterations, "Ceres iterations of each rigid-pose block solve");
+    v("jaw_iterations", jaw_iterations, "Ceres iterations of each jaw-controls block solve");
+    v("expression_iterations", expression_iterations,
+      "Ceres iterations of each solve of the remaining controls");
+    v("solve_roll", solve_roll, "solve the roll angle of the rigid pose");
+    v("solve_scale", solve_scale, "solve the uniform scale of the rigid pose");
+    v("weight_prior", weight_prior, "L2 prior lambda |w|^2 towards the neutral (0: off)");
+    v("function_tolerance", function_tolerance, "relative cost decrease that stops a block");
+    v("edge_width_px", soft.edge_width_px,
+      "half-width of the soft band around region borders and silhouettes (pixels)");
+  }
+  bool Check(std::string* why) const;
+};
+
+// One frame's target in the rig's image frame.
+struct TrackTarget {
+  render::Camera camera;            // intrinsics and size of the image
+  ImageF image;                     // width x height x 3 RGB in [0, 1] (segmentation objective)
+  Eigen::Matrix<float, Eigen::Dynamic, 2> landmarks;  // 68 x 2 pixels (landmarks objective
+                                                      // and initialisation); may be empty
+  std::vector<uint8_t> landmark_visible;              // 68 flags; empty: all visible
+};
+
+// Per-frame summary, like Ceres's Solver::Summary.
+enum class Termination : int { kConvergence = 0, kNoConvergence = 1, kFailure = 2 };
+struct FrameSummary {
+  Termination termination = Termination::kNoConvergence;
+  double initial_cost = 0.;  // 0.5 |r|^2 of the objective (no prior) at the start, full size
+  double final_cost = 0.;    // the same at the solution
+  int iterations = 0;        // Ceres iterations over all blocks, epochs and levels
+  int evaluations = 0;       // renders (or landmark evaluations)
+  double seconds = 0.;       // wall time of the solve
+  std::string BriefReport() const;
+};
+const char* TerminationName(Termination t);
+
+struct TrackResult {
+  rig::RigidPose pose;
+  Eigen::VectorXf weights;
+  FrameSummary summary;
+};
+
+// The solver of one rig (precompute / solve split). Solve is const and thread-safe.
+class Tracker {
+ public:
+  // region_colors: the texture the model is rendered with (RigRegionColors for T_seg).
+  Tracker(const rig::Rig& rig, std::vector<Eigen::Vector3f> region_colors,
+          const TrackerOptions& options);
+  ~Tracker();
+
+  // Solves one frame from the initial pose and weights.
+  TrackResult Solve(const TrackTarget& target, const rig::RigidPose& initial_pose,
+                    const Eigen::VectorXf& initial_weights) const;
+
+  // Fits only the rigid pose to the target's landmarks (initialisation "from landmarks").
+  rig::RigidPose PoseFromLandmarks(const TrackTarget& target, const rig::RigidPose& initial_pose,
+                                   const Eigen::VectorXf& weights) const;
+
+  // 0.5 |F_seg - T|^2 at the given parameters (the segmentation cost, no prior).
+  double SegmentationCost(const TrackTarget& target, const rig::RigidPose& pose,
+                          const Eigen::VectorXf& weights) const;
+
+  const rig::RigEvaluator& evaluator() const { return evaluator_; }
+  const SoftSegmentationRenderer& renderer() const { return renderer_; }
+  const TrackerOptions& options() const { return options_; }
+
+  // The per-solve workspace (tracker.cpp).
+  struct Impl;
+
+ private:
+  const rig::Rig& rig_;
+  TrackerOptions options_;
+  rig::RigEvaluator evaluator_;
+  SoftSegmentationRenderer renderer_;
+  std::vector<int> jaw_shapes_, other_shapes_;
+};
+
+// The target at half resolution: 2 x 2 box average, camera intrinsics halved.
+TrackTarget Downsample(const TrackTarget& target);
+
+// Brings a target image into the rig's image frame (paper Fig. 18): out(x) = in(A x + b),
+// with `rig_to_target` the 2 x 3 similarity [A | b] from rig-frame pixel coordinates to
+// target pixel coordinates (identity for synthetic targets rendered with the rig's camera),
+// bilinear, `fill` outside. Output width x height x channels of `image`.
+ImageF WarpToRigFrame(const ImageF& image, const Eigen::Matrix<float, 2, 3>& rig_to_target,
+                      int width, int height, float fill = 0.f);
+
+// RGB8 -> float RGB in [0, 1].
+ImageF ToFloatImage(const Image8& image);
+
+// Maps each pixel of a segmentation image to the nearest of `from` colours and writes the
+// corresponding `to` colour (e.g. a skin albedo per region for the realistic-texture
+// baseline), nearest in RGB; pixels nearer to `background` than to any region stay as the
+// background.
+ImageF RecolorSegmentation(const ImageF& image, const std::vector<Eigen::Vector3f>& from,
+                           const std::vector<Eigen::Vector3f>& to,
+                           const Eigen::Vector3f& background);
+
+// A realistic, skin-like albedo per region of the demo head (by region name: lips reddish,
+// eye whites, iris dark, brows brown, all other skin regions one skin colour), used as
+// T_real in the realistic-texture baseline (paper Figs. 20-21): most segmentation borders
+// vanish because neighbouring skin regions share one colour.
+std::vector<Eigen::Vector3f> SkinRegionColors(const rig::Rig& rig);
+
+}  // namespace facecap::track
+
+#endif  // FACECAP_TRACK_TRACKER_H_
