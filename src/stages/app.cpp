@@ -34,6 +34,11 @@ int RunApp(int argc, char** argv) {
   RegisterIngest(&app, &state);
   RegisterCurate(&app, &state);
   RegisterDeepfake(&app, &state);
+  RegisterExport(&app, &state);
+  RegisterScans(&app, &state);
+  RegisterBlendshapes(&app, &state);
+  RegisterTrack(&app, &state);
+  RegisterEval(&app, &state);
   RegisterRun(&app, &state);
 
   int code = kExitOk;

@@ -71,9 +71,17 @@ void RegisterVersion(CLI::App* app, AppState* state);
 void RegisterRig(CLI::App* app, AppState* state);
 void RegisterRender(CLI::App* app, AppState* state);
 void RegisterSynth(CLI::App* app, AppState* state);
+// `synth clip` and `synth sheet`, under the `synth` subcommand made by RegisterSynth.
+void RegisterSynthClip(CLI::App* synth, AppState* state);
 void RegisterIngest(CLI::App* app, AppState* state);
 void RegisterCurate(CLI::App* app, AppState* state);
 void RegisterDeepfake(CLI::App* app, AppState* state);
+void RegisterExport(CLI::App* app, AppState* state);
+void RegisterScans(CLI::App* app, AppState* state);
+void RegisterBlendshapes(CLI::App* app, AppState* state);
+void RegisterTrack(CLI::App* app, AppState* state);
+// `eval track` (and other metrics) under an `eval` subcommand, made when absent.
+void RegisterEval(CLI::App* app, AppState* state);
 void RegisterRun(CLI::App* app, AppState* state);
 
 std::string VersionReport(const dist::Comm& comm);

@@ -1,0 +1,98 @@
+// facecap export: Live Link Face CSV columns and values, glTF animation that re-imports.
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "io/hdf5.h"
+#include "io/mesh_io.h"
+#include "rig/arkit.h"
+#include "testing/testing.h"
+#include "util/errors.h"
+
+namespace facecap::stages {
+namespace {
+
+using testing::RunFacecap;
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream ss(line);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) cells.push_back(cell);
+  return cells;
+}
+
+// A small tracking output: 5 frames, the ARKit shapes in a shuffled order plus one extra.
+std::string WriteTrack(const testing::TempDir& dir) {
+  std::vector<std::string> names = rig::ArkitShapeNames();
+  std::reverse(names.begin(), names.end());
+  names.push_back("notAnArkitShape");
+  const int F = 5, S = static_cast<int>(names.size());
+  Eigen::MatrixXf w(F, S);
+  for (int f = 0; f < F; ++f)
+    for (int s = 0; s < S; ++s) w(f, s) = static_cast<float>((f * 7 + s) % 10) / 10.f;
+  Eigen::MatrixXf pose(F, 3);
+  for (int f = 0; f < F; ++f) pose.row(f) << 0.01f * f, -0.1f * f, 0.002f;
+  const std::string path = dir.File("track.h5");
+  io::H5File file = io::H5File::CreateAtomic(path);
+  file.WriteStrings("/track/shape_names", names);
+  file.WriteMatrix("/track/weights", w);
+  file.WriteMatrix("/track/pose", pose);
+  file.Commit();
+  return path;
+}
+
+TEST(ExportLiveLink, HeaderHasTimecodeCountAnd61ValuesMatchedByName) {
+  testing::TempDir dir;
+  const std::string track = WriteTrack(dir), csv = dir.File("take.csv");
+  auto r = RunFacecap("export livelink --track " + track + " --out " + csv + " --fps 30");
+  ASSERT_EQ(r.code, 0) << r.output;
+  std::ifstream in(csv);
+  std::string header, line;
+  std::getline(in, header);
+  const auto columns = SplitCsv(header);
+  ASSERT_EQ(columns.size(), 63u);  // Timecode, BlendShapeCount, 61 values
+  EXPECT_EQ(columns[0], "Timecode");
+  EXPECT_EQ(columns[1], "BlendShapeCount");
+  EXPECT_EQ(columns[2], "EyeBlinkLeft");
+  EXPECT_EQ(columns[53], "TongueOut");
+  EXPECT_EQ(columns[54], "HeadYaw");
+  EXPECT_EQ(columns[62], "RightEyeRoll");
+  // Values follow names: jawOpen's column holds the track's jawOpen weights.
+  std::vector<std::string> names = rig::ArkitShapeNames();
+  std::reverse(names.begin(), names.end());
+  const int jaw_track = static_cast<int>(std::find(names.begin(), names.end(), "jawOpen") - names.begin());
+  const int jaw_column = static_cast<int>(std::find(columns.begin(), columns.end(), "JawOpen") - columns.begin());
+  int frame = 0;
+  while (std::getline(in, line)) {
+    const auto cells = SplitCsv(line);
+    ASSERT_EQ(cells.size(), 63u);
+    EXPECT_EQ(cells[1], "61");
+    EXPECT_NEAR(std::stof(cells[jaw_column]), ((frame * 7 + jaw_track) % 10) / 10.f, 1e-6);
+    EXPECT_NEAR(std::stof(cells[54]), -0.1f * frame, 1e-6);  // yaw
+    ++frame;
+  }
+  EXPECT_EQ(frame, 5);
+}
+
+TEST(ExportLiveLink, MissingTrackIsAnInputError) {
+  testing::TempDir dir;
+  auto r = RunFacecap("export livelink --track " + dir.File("none.h5") + " --out " + dir.File("x.csv"));
+  EXPECT_EQ(r.code, kExitInput) << r.output;
+}
+
+TEST(ExportGltf, AnimationReimportsWithTheRigsMorphTargets) {
+  testing::TempDir dir;
+  const std::string track = WriteTrack(dir), rig = dir.File("rig.h5"), glb = dir.File("take.glb");
+  ASSERT_EQ(RunFacecap("rig demo --out " + rig).code, 0);
+  auto r = RunFacecap("export gltf --track " + track + " --rig " + rig + " --out " + glb);
+  ASSERT_EQ(r.code, 0) << r.output;
+  const rig::Rig back = io::ImportRigFromGltf(glb);
+  EXPECT_EQ(back.NumShapes(), 52);
+  EXPECT_GE(back.ShapeIndex("jawOpen"), 0);
+}
+
+}  // namespace
+}  // namespace facecap::stages
