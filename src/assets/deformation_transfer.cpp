@@ -102,27 +102,34 @@ DeformationTransfer::DeformationTransfer(const rig::Vertices& source_rest,
 
 DeformationTransfer::~DeformationTransfer() = default;
 
-rig::Vertices DeformationTransfer::Transfer(const rig::Vertices& source_deformed) const {
-  const Impl& m = *impl_;
-  const int V = static_cast<int>(m.target_rest.rows());
+namespace {
+
+// The solution X (#V by 3, double) for one source deformation.
+Eigen::MatrixXd SolveTransfer(const DeformationTransfer::Impl& m,
+                              const Eigen::MatrixXd& source_deformed) {
   // Right-hand side: G^T A C + mu (T_0 + D), C row 3k+j, column r = (Q_t)_{r, j}.
   Eigen::MatrixXd targets(3 * m.used.size(), 3);
   for (size_t k = 0; k < m.used.size(); ++k) {
     const int t = m.used[k];
     const int a = m.triangles(t, 0), b = m.triangles(t, 1), c = m.triangles(t, 2);
-    const Frame deformed = EdgeFrame(source_deformed.row(a).cast<double>().transpose(),
-                                     source_deformed.row(b).cast<double>().transpose(),
-                                     source_deformed.row(c).cast<double>().transpose());
+    const Frame deformed = EdgeFrame(source_deformed.row(a).transpose(),
+                                     source_deformed.row(b).transpose(),
+                                     source_deformed.row(c).transpose());
     const Eigen::Matrix3d q = deformed * m.source_frame_inverse[k];
     targets.block<3, 3>(3 * k, 0) = m.area[k] * q.transpose();
   }
   Eigen::MatrixXd rhs = m.gradient.transpose() * targets;
   const Eigen::MatrixXd prior =
-      (m.target_rest + (source_deformed - m.source_rest)).cast<double>();
+      m.target_rest.cast<double>() + (source_deformed - m.source_rest.cast<double>());
   rhs += m.options.anchor_weight * prior;
-  const Eigen::MatrixXd x = m.solver.solve(rhs);
-  rig::Vertices out(V, 3);
-  out = x.cast<float>();
+  return m.solver.solve(rhs);
+}
+
+}  // namespace
+
+rig::Vertices DeformationTransfer::Transfer(const rig::Vertices& source_deformed) const {
+  const Eigen::MatrixXd x = SolveTransfer(*impl_, source_deformed.cast<double>());
+  rig::Vertices out = x.cast<float>();
   return out;
 }
 
@@ -134,10 +141,11 @@ Eigen::MatrixXf DeformationTransfer::TransferDeltas(const Eigen::MatrixXf& sourc
   }
   Eigen::MatrixXf out(3 * V, source_deltas.cols());
   for (int i = 0; i < source_deltas.cols(); ++i) {
-    rig::Vertices deformed = m.source_rest;
-    deformed += Eigen::Map<const rig::Vertices>(source_deltas.col(i).data(), V, 3);
-    const rig::Vertices moved = Transfer(deformed) - m.target_rest;
-    out.col(i) = Eigen::Map<const Eigen::VectorXf>(moved.data(), 3 * V);
+    const rig::Vertices delta = Eigen::Map<const rig::Vertices>(source_deltas.col(i).data(), V, 3);
+    const Eigen::MatrixXd deformed = m.source_rest.cast<double>() + delta.cast<double>();
+    const Eigen::MatrixXd moved = SolveTransfer(m, deformed) - m.target_rest.cast<double>();
+    rig::Vertices moved_rows = moved.cast<float>();
+    out.col(i) = Eigen::Map<const Eigen::VectorXf>(moved_rows.data(), 3 * V);
   }
   return out;
 }

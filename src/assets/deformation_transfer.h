@@ -48,8 +48,9 @@ class DeformationTransfer {
   // (3#V by N): the template moved onto the target's neutral.
   Eigen::MatrixXf TransferDeltas(const Eigen::MatrixXf& source_deltas) const;
 
- private:
   struct Impl;
+
+ private:
   std::unique_ptr<Impl> impl_;
 };
 

@@ -89,7 +89,7 @@ void RunSynthSamples(const StageFlags& flags, AppState* state) {
       return;
     }
     io::H5File& f = output.file;
-    f.CreateFrames<uint8_t>("/samples/segmentation", {H, W, 3}, so.count, 16);
+    f.CreateFrames<uint8_t>("/samples/segmentation", {H, W, 3}, so.count, 16, 1);
     f.SetAttribute("/samples/segmentation", "layout", std::string("frame, y, x, RGB"));
     f.CreateFrames<float>("/samples/weights", {S}, so.count, 256, 4);
     f.CreateFrames<float>("/samples/pose", {3}, so.count, 1024, 4);
@@ -211,6 +211,7 @@ void RegisterSynth(CLI::App* app, AppState* state) {
       "truncated Gaussian) rendered as segmentation images with landmarks; spread across ranks, "
       "identical for any rank count, resumable",
       RunSynthSamples);
+  RegisterSynthClip(synth, state);
 }
 
 }  // namespace facecap::stages

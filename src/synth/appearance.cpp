@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <limits>
 
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -246,7 +247,7 @@ PersonColors DrawPersonColors(uint64_t seed) {
       {70, 42, 24}, {110, 82, 45}, {80, 110, 68}, {78, 112, 158}, {118, 124, 130}};
   const int i = static_cast<int>(rng.UniformInt(static_cast<int64_t>(irises.size())));
   p.iris = Srgb8(irises[i].x(), irises[i].y(), irises[i].z());
-  p.sclera = Srgb8(232, 222, 212) * static_cast<float>(rng.Uniform(0.85, 1.0));
+  p.sclera = Srgb8(205, 195, 185) * static_cast<float>(rng.Uniform(0.85, 1.0));
   return p;
 }
 
@@ -268,6 +269,10 @@ bool SkinTextureOptions::Check(std::string* why) const {
     *why = "lash_darkness must be in [0, 1]";
     return false;
   }
+  if (!(occlusion_strength >= 0.f && occlusion_strength <= 1.f)) {
+    *why = "occlusion_strength must be in [0, 1]";
+    return false;
+  }
   return true;
 }
 
@@ -284,10 +289,27 @@ ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t
   const int N = options.texture_size;
   const int F = static_cast<int>(rig.triangles.rows());
 
-  // 1. Bake: per texel the covering triangle and its point on the neutral mesh.
+  // 1. Bake: per texel the covering triangle and its point on the neutral mesh. Triangles
+  // whose UV edges are far longer than their surface edges warrant (rims that join a chart to
+  // another, e.g. a mouth or eye pocket to the lip or lid margin) would smear over the charts
+  // they cross: they are not baked, and show the texels their UVs pass over.
+  std::vector<float> texel_density(F, 0.f);  // longest UV edge per unit surface length
+  for (int f = 0; f < F; ++f) {
+    for (int k = 0; k < 3; ++k) {
+      const int k1 = (k + 1) % 3;
+      const float uv_length = (rig.uvs.row(rig.uv_triangles(f, k1)) - rig.uvs.row(rig.uv_triangles(f, k))).norm();
+      const float length = (rig.neutral.row(rig.triangles(f, k1)) - rig.neutral.row(rig.triangles(f, k))).norm();
+      texel_density[f] = std::max(texel_density[f], uv_length / std::max(length, 1e-6f));
+    }
+  }
+  std::vector<float> sorted_density = texel_density;
+  std::nth_element(sorted_density.begin(), sorted_density.begin() + F / 2, sorted_density.end());
+  const float max_density = 12.f * sorted_density[F / 2];
   std::vector<int32_t> texel_triangle(static_cast<size_t>(N) * N, -1);
   std::vector<Eigen::Vector3f> texel_position(static_cast<size_t>(N) * N, Eigen::Vector3f::Zero());
+  std::vector<Eigen::Vector3f> texel_barycentrics(static_cast<size_t>(N) * N, Eigen::Vector3f::Zero());
   for (int f = 0; f < F; ++f) {
+    if (texel_density[f] > max_density) continue;
     Eigen::Vector2f t[3];
     Eigen::Vector3f p[3];
     for (int k = 0; k < 3; ++k) {
@@ -312,10 +334,60 @@ ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t
         constexpr float kEps = -1e-4f;
         if (b0 < kEps || b1 < kEps || b2 < kEps) continue;
         const size_t i = static_cast<size_t>(y) * N + x;
+        const Eigen::Vector3f position = b0 * p[0] + b1 * p[1] + b2 * p[2];
+        // Charts made by front projection (eyeballs) hold a front and a back: the front wins.
+        if (texel_triangle[i] >= 0 && texel_position[i].z() >= position.z()) continue;
         texel_triangle[i] = f;
-        texel_position[i] = b0 * p[0] + b1 * p[1] + b2 * p[2];
+        texel_position[i] = position;
+        texel_barycentrics[i] = Eigen::Vector3f(b0, b1, b2);
       }
     }
+  }
+
+  // Cavities (eye sockets, nostrils, folds, mouth corners) catch less light: a per-vertex
+  // concavity (the normal's component of the way to the neighbours' centroid, in units of
+  // the local edge length), smoothed a few times, darkens the albedo as baked-in occlusion.
+  const int V = rig.NumVertices();
+  std::vector<std::vector<int>> neighbours(V);
+  Eigen::MatrixXf vertex_normals = Eigen::MatrixXf::Zero(V, 3);
+  for (int f = 0; f < F; ++f) {
+    const Eigen::Vector3f p0 = rig.neutral.row(rig.triangles(f, 0)), p1 = rig.neutral.row(rig.triangles(f, 1)),
+                          p2 = rig.neutral.row(rig.triangles(f, 2));
+    const Eigen::Vector3f n = (p1 - p0).cross(p2 - p0);
+    for (int k = 0; k < 3; ++k) {
+      const int v = rig.triangles(f, k);
+      vertex_normals.row(v) += n.transpose();
+      neighbours[v].push_back(rig.triangles(f, (k + 1) % 3));
+      neighbours[v].push_back(rig.triangles(f, (k + 2) % 3));
+    }
+  }
+  std::vector<float> cavity(V, 0.f);
+  for (int v = 0; v < V; ++v) {
+    auto& nb = neighbours[v];
+    std::sort(nb.begin(), nb.end());
+    nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
+    if (nb.empty() || vertex_normals.row(v).norm() == 0.f) continue;
+    Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+    float edge = 0.f;
+    const Eigen::Vector3f pv = rig.neutral.row(v);
+    for (int u : nb) {
+      const Eigen::Vector3f pu = rig.neutral.row(u);
+      centroid += pu;
+      edge += (pu - pv).norm();
+    }
+    centroid /= static_cast<float>(nb.size());
+    edge /= static_cast<float>(nb.size());
+    const Eigen::Vector3f n = vertex_normals.row(v).normalized();
+    cavity[v] = n.dot(centroid - pv) / std::max(edge, 1e-6f);
+  }
+  for (int iteration = 0; iteration < 6; ++iteration) {
+    std::vector<float> smoothed(V, 0.f);
+    for (int v = 0; v < V; ++v) {
+      float sum = cavity[v];
+      for (int u : neighbours[v]) sum += cavity[u];
+      smoothed[v] = sum / static_cast<float>(neighbours[v].size() + 1);
+    }
+    cavity.swap(smoothed);
   }
 
   // 2. Face landmarks on the neutral mesh place cheeks, nose tip and lash lines.
@@ -325,6 +397,7 @@ ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t
   const Eigen::Vector3f cheeks[2] = {0.3f * lm[1] + 0.3f * lm[31] + 0.4f * lm[41],
                                      0.3f * lm[15] + 0.3f * lm[35] + 0.4f * lm[46]};
   const Eigen::Vector3f nose_tip = lm[30];
+  const float eye_level = 0.25f * (lm[36].y() + lm[39].y() + lm[42].y() + lm[45].y());
   const std::vector<Eigen::Vector3f> upper_lash[2] = {{lm[36], lm[37], lm[38], lm[39]},
                                                       {lm[42], lm[43], lm[44], lm[45]}};
   const std::vector<Eigen::Vector3f> lower_lash[2] = {{lm[39], lm[40], lm[41], lm[36]},
@@ -381,6 +454,10 @@ ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t
         if ((p - mole.first).norm() < mole.second) skin *= 0.55f;
       }
       Eigen::Vector3f albedo = skin;
+      const Eigen::Vector3f& b = texel_barycentrics[i];
+      const float concavity = b[0] * cavity[rig.triangles(f, 0)] + b[1] * cavity[rig.triangles(f, 1)] +
+                              b[2] * cavity[rig.triangles(f, 2)];
+      const float occlusion = 1.f - options.occlusion_strength * Smoothstep(0.f, 0.12f, concavity);
       switch (material) {
         case Material::kSkin:
         case Material::kNose:
@@ -414,8 +491,10 @@ ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t
           break;
         }
         case Material::kSclera: {
-          const float veins = std::max(0.f, Fbm(p, 6.f, 2, s + 41u));
-          albedo = colors.sclera.cwiseProduct(Eigen::Vector3f(1.f, 1.f - 0.3f * veins, 1.f - 0.3f * veins));
+          const float veins = std::max(0.f, Fbm(p, 6.f, 2, s + 41u) - 0.3f);
+          albedo = colors.sclera.cwiseProduct(Eigen::Vector3f(1.f, 1.f - 0.2f * veins, 1.f - 0.2f * veins));
+          // Lids and lashes shade the eye white away from its centre.
+          albedo *= 0.85f - 0.25f * Smoothstep(0.3f, 1.2f, std::abs(p.y() - eye_level) / (0.06f * eye_span));
           break;
         }
         case Material::kIris:
@@ -434,6 +513,10 @@ ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t
           lash = std::max({lash, 1.f - Smoothstep(0.5f, 1.f, du), 0.6f * (1.f - Smoothstep(0.5f, 1.f, dl))});
         }
         albedo = Lerp(albedo, colors.hair * 0.4f, options.lash_darkness * lash);
+      }
+      if (material != Material::kMouth && material != Material::kPupil && material != Material::kIris &&
+          material != Material::kSclera) {
+        albedo *= occlusion;
       }
       for (int c = 0; c < 3; ++c) texture.at(x, y, c) = std::clamp(albedo[c], 0.f, 1.f);
     }

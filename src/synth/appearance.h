@@ -44,6 +44,7 @@ struct SkinTextureOptions {
   float pore_strength = 0.10f;     // relative amplitude of the fine pore noise
   float cheek_redness = 0.35f;     // how much cheeks, nose tip and ears shift towards red
   float lash_darkness = 0.75f;     // darkening of the eyelid margins (lash lines), [0, 1]
+  float occlusion_strength = 0.45f; // darkening of cavities (sockets, nostrils, folds), [0, 1]
 
   bool Check(std::string* why) const;
 };

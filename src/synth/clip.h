@@ -134,6 +134,8 @@ struct ClipOptions {
     v("pore_strength", texture.pore_strength, "fine pore noise of the skin");
     v("cheek_redness", texture.cheek_redness, "redness of cheeks and nose");
     v("lash_darkness", texture.lash_darkness, "darkening of the lash lines, [0, 1]");
+    v("occlusion_strength", texture.occlusion_strength,
+      "darkening of cavities (eye sockets, nostrils, folds), [0, 1]");
     v("exposure_min", degradation.exposure_min, "smallest exposure gain");
     v("exposure_max", degradation.exposure_max, "largest exposure gain");
     v("white_balance_jitter", degradation.white_balance_jitter,

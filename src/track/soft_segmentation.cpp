@@ -112,6 +112,7 @@ void SoftSegmentationRenderer::Render(const rig::Vertices& camera_vertices,
     out->color[3 * p + 1] = c.y();
     out->color[3 * p + 2] = c.z();
   }
+  out->hard_color = out->color;
 
   // Screen positions and facing.
   const int num_vertices = static_cast<int>(camera_vertices.rows());
@@ -120,15 +121,17 @@ void SoftSegmentationRenderer::Render(const rig::Vertices& camera_vertices,
     out->screen[v] = camera.Project(camera_vertices.row(v).transpose());
   }
   const float near_depth = render::RasterizeOptions().near_depth;
-  auto front_facing = [&](int f) {
-    if (f < 0) return false;
+  const int num_faces = static_cast<int>(tris.rows());
+  out->front.resize(num_faces);
+  for (int f = 0; f < num_faces; ++f) {
     const Eigen::Vector3f& a = out->screen[tris(f, 0)];
     const Eigen::Vector3f& b = out->screen[tris(f, 1)];
     const Eigen::Vector3f& c = out->screen[tris(f, 2)];
-    if (a.z() < near_depth || b.z() < near_depth || c.z() < near_depth) return false;
-    const float area2 = Cross((b - a).head<2>(), (c - a).head<2>());
-    return area2 < 0.f;  // counter-clockwise in camera space is clockwise on the y-down screen
-  };
+    const bool in_front = a.z() >= near_depth && b.z() >= near_depth && c.z() >= near_depth;
+    // Counter-clockwise in camera space is clockwise on the y-down screen: negative area.
+    out->front[f] = in_front && Cross((b - a).head<2>(), (c - a).head<2>()) < 0.f;
+  }
+  auto front_facing = [&](int f) { return f >= 0 && out->front[f] != 0; };
   auto hard_color_at = [&](const Eigen::Vector2f& uv) -> Eigen::Vector3f {
     const int x = static_cast<int>(std::floor(uv.x())), y = static_cast<int>(std::floor(uv.y()));
     if (x < 0 || y < 0 || x >= W || y >= H) return options_.background_color;

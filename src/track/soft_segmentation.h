@@ -23,6 +23,7 @@
 #ifndef FACECAP_TRACK_SOFT_SEGMENTATION_H_
 #define FACECAP_TRACK_SOFT_SEGMENTATION_H_
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -66,9 +67,11 @@ struct EdgePixel {
 struct SoftRender {
   render::GBuffer gbuffer;
   std::vector<float> color;            // 3 * #pixels, soft RGB in [0, 1], row-major, y down
+  std::vector<float> hard_color;       // 3 * #pixels, the hard render's RGB
   std::vector<EdgePixel> edge_pixels;  // the pixels with a non-zero derivative, ascending
   // Workspace.
   std::vector<Eigen::Vector3f> screen;  // #V (u, v, depth)
+  std::vector<uint8_t> front;           // #F, 1 where the face is in front and faces the camera
   std::vector<float> best_distance;     // #pixels
   std::vector<int> best_edge;           // #pixels
   std::vector<int> border_edges;        // visible border edges of this render

@@ -105,7 +105,6 @@ TEST_F(SoftSegmentationTest, ChainedJacobianMatchesCentralDifferences) {
       evaluator.EvaluatePosed(p, w, &posed);
       renderer.Render(posed, camera_, sign > 0 ? &plus : &minus);
     }
-    Eigen::VectorXd analytic_sum = Eigen::VectorXd::Zero(1), numeric_sum = Eigen::VectorXd::Zero(1);
     double err2 = 0., ref2 = 0.;
     for (int i = 0; i < rows.rows(); ++i) {
       const EdgePixel& ep = base.edge_pixels[i];
@@ -114,6 +113,13 @@ TEST_F(SoftSegmentationTest, ChainedJacobianMatchesCentralDifferences) {
       if (plus.best_edge[p] < 0 || minus.best_edge[p] < 0) continue;
       if (plus.border_edges[plus.best_edge[p]] != base.border_edges[base.best_edge[p]] ||
           minus.border_edges[minus.best_edge[p]] != base.border_edges[base.best_edge[p]]) {
+        continue;
+      }
+      // ... and the same side colours (a silhouette's behind colour is read off the hard
+      // render and may switch: a discontinuity of the model, not of its derivative).
+      const int kb = base.best_edge[p], kp = plus.best_edge[p], km = minus.best_edge[p];
+      if (plus.edge_colors[2 * kp + 1] != base.edge_colors[2 * kb + 1] ||
+          minus.edge_colors[2 * km + 1] != base.edge_colors[2 * kb + 1]) {
         continue;
       }
       if (std::abs(ep.distance) > 0.8f * renderer.options().edge_width_px) continue;

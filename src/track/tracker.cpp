@@ -125,7 +125,8 @@ struct Tracker::Impl {
     tracker.evaluator_.EvaluatePosed(pose, weights, &posed);
     tracker.renderer_.Render(posed, target.camera, &render);
     ++evaluations;
-    const std::vector<float>& c = render.color;
+    const std::vector<float>& c =
+        tracker.options_.hard_residual ? render.hard_color : render.color;
     const std::vector<float>& t = target.image.data;
     double sum = 0.;
     for (size_t i = 0; i < c.size(); ++i) {
@@ -151,8 +152,10 @@ struct Tracker::Impl {
         rows.row(i) *= knorm;
         scaled_r[i] = knorm > 0.f ? ep.color_slope.dot(r) / knorm : 0.f;
       }
-      *normal = (rows.transpose() * rows).cast<double>();
-      *gradient = (rows.transpose() * scaled_r).cast<double>();
+      // Coefficient-based products: single-threaded (no OpenMP inside Eigen's GEMM), so the
+      // result does not depend on the thread count.
+      *normal = rows.transpose().lazyProduct(rows).cast<double>();
+      *gradient = rows.transpose().lazyProduct(scaled_r).cast<double>();
     }
     return sum;
   }
@@ -417,10 +420,11 @@ TrackResult Tracker::Solve(const TrackTarget& target, const rig::RigidPose& init
     const bool finest = level + 1 == pyramid.size();
     const int epochs = finest ? options_.epochs : options_.coarse_epochs;
     Impl impl(*this, pyramid[level]);
-    // The prior is relative to the full-resolution pixel cost: scale with the pixel count.
+    // The prior is relative to the pixel cost of a 128 x 128 image: it scales with the pixel
+    // count of the level, so that its balance with the data term does not depend on size.
     const double prior_scale =
         landmarks ? 1. : static_cast<double>(pyramid[level].camera.width) *
-                             pyramid[level].camera.height / (target.camera.width * target.camera.height);
+                             pyramid[level].camera.height / (128. * 128.);
     for (int epoch = 0; epoch < epochs; ++epoch) {
       const bool last_epoch = finest && epoch + 1 == epochs;
       const std::pair<const std::vector<int>*, int> blocks[3] = {

@@ -59,8 +59,15 @@ struct TrackerOptions {
   bool solve_roll = true;
   bool solve_scale = false;
   // lambda of the L2 prior lambda |w|^2 towards the neutral on the solved weights, relative
-  // to the pixel cost (sum of squared RGB differences in [0, 1]). 0 turns it off.
-  float weight_prior = 0.02f;
+  // to the pixel cost (sum of squared RGB differences in [0, 1]) of a 128 x 128 image; it
+  // scales with the pixel count of other sizes.
+  // Shapes that a segmentation image barely shows (tongue, cheek puff, dimples) are otherwise
+  // free to take any value that trades a few border pixels; 0 turns it off.
+  float weight_prior = 3.f;
+  // Residual colours: false compares the soft render F_seg with the target (consistent cost
+  // and derivative); true compares the hard render (exactly zero at the truth for a clean,
+  // aliased target) and uses the soft render's derivative as its Gauss-Newton Jacobian.
+  bool hard_residual = true;
   // Ceres trust-region stopping: relative cost decrease below which a block stops.
   double function_tolerance = 1e-4;
   // Soft render: half-width of the antialiased band around region borders and silhouettes
@@ -80,6 +87,8 @@ struct TrackerOptions {
     v("solve_roll", solve_roll, "solve the roll angle of the rigid pose");
     v("solve_scale", solve_scale, "solve the uniform scale of the rigid pose");
     v("weight_prior", weight_prior, "L2 prior lambda |w|^2 towards the neutral (0: off)");
+    v("hard_residual", hard_residual,
+      "residual of the hard render with the soft render's Jacobian (for aliased targets)");
     v("function_tolerance", function_tolerance, "relative cost decrease that stops a block");
     v("edge_width_px", soft.edge_width_px,
       "half-width of the soft band around region borders and silhouettes (pixels)");

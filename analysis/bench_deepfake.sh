@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Data-parallel deepfake training: steps per second at the same global batch on 1 rank and on
+# 2 ranks (one torch thread per rank), and the parallel efficiency (DESIGN.md target: >= 85%
+# at 2 ranks), with 1 rank x 2 threads beside it as the intra-op baseline.
+#
+#   analysis/bench_deepfake.sh [BUILD_DIR] [-- extra `deepfake train` flags]
+#
+# Environment: SIZE (default 64), BATCH (global batch, default 16), STEPS (default 20).
+set -euo pipefail
+
+source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build_dir="${FACECAP_BUILD_DIR:-${source_dir}/build}"
+if [[ $# -gt 0 && "$1" != "--" ]]; then
+  build_dir="$1"
+  shift
+fi
+[[ $# -gt 0 && "$1" == "--" ]] && shift
+facecap="${build_dir}/facecap"
+size="${SIZE:-64}"
+batch="${BATCH:-16}"
+steps="${STEPS:-20}"
+tmp_dir="$(mktemp -d)"
+trap 'rm -rf "${tmp_dir}"' EXIT
+cd "${tmp_dir}"
+mpi() { mpirun --oversubscribe --allow-run-as-root -n "$1" "${@:2}"; }
+
+"${facecap}" rig demo --out rig.h5 >/dev/null 2>&1
+"${facecap}" synth samples --rig rig.h5 --count 256 --size "${size}" --out a.h5 >/dev/null 2>&1
+"${facecap}" synth samples --rig rig.h5 --count 256 --size "${size}" --seed 2 --out b.h5 >/dev/null 2>&1
+
+# Steps per second of the last progress line (the rate over the whole run, start-up excluded).
+rate() {
+  local ranks="$1" threads="$2" out="run_${1}x${2}.h5"
+  shift 2
+  OMP_NUM_THREADS="${threads}" mpi "${ranks}" "${facecap}" deepfake train --a a.h5 --b b.h5 \
+    --size "${size}" --batch "${batch}" --steps "${steps}" --checkpoint-every 0 \
+    --preview-every 0 --progress-seconds 1000 --out "${out}" "$@" 2>&1 \
+    | grep -o '[0-9.]* steps/s' | tail -n 1 | cut -d' ' -f1
+}
+
+echo "# facecap deepfake training benchmark: ${size}x${size}, global batch ${batch}, ${steps} steps ($(uname -m), $(getconf _NPROCESSORS_ONLN) cores)"
+r1="$(rate 1 1 "$@")"
+r2="$(rate 2 1 "$@")"
+r12="$(rate 1 2 "$@")"
+awk -v r1="${r1}" -v r2="${r2}" -v r12="${r12}" -v b="${batch}" 'BEGIN {
+  printf "%-24s %10s %12s %10s\n", "configuration", "steps/s", "images/s", "speed-up";
+  printf "%-24s %10.3f %12.1f %10.2f\n", "1 rank x 1 thread", r1, r1 * b * 2, 1;
+  printf "%-24s %10.3f %12.1f %10.2f\n", "2 ranks x 1 thread", r2, r2 * b * 2, r2 / r1;
+  printf "%-24s %10.3f %12.1f %10.2f\n", "1 rank x 2 threads", r12, r12 * b * 2, r12 / r1;
+  printf "parallel efficiency at 2 ranks: %.1f%% (target >= 85%%)\n", 100 * r2 / (2 * r1);
+}'

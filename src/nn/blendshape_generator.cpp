@@ -1,0 +1,401 @@
+#include "nn/blendshape_generator.h"
+
+#include <cmath>
+
+#include <torch/torch.h>
+
+#include "util/errors.h"
+
+namespace facecap::nn {
+namespace {
+
+namespace F = torch::nn::functional;
+
+torch::nn::Conv2d Conv(int in, int out, int kernel, int stride = 1) {
+  return torch::nn::Conv2d(
+      torch::nn::Conv2dOptions(in, out, kernel).stride(stride).padding(kernel == 4 ? 1 : kernel / 2));
+}
+
+// Residual block, optionally with instance normalization (the decoder's).
+struct ResidualBlockImpl : torch::nn::Module {
+  ResidualBlockImpl(int channels, bool instance_norm) : normalize(instance_norm) {
+    first = register_module("first", Conv(channels, channels, 3));
+    second = register_module("second", Conv(channels, channels, 3));
+  }
+  torch::Tensor forward(const torch::Tensor& x) {
+    torch::Tensor y = first->forward(x);
+    if (normalize) y = F::instance_norm(y);
+    y = torch::relu(y);
+    y = second->forward(y);
+    if (normalize) y = F::instance_norm(y);
+    return x + y;
+  }
+  bool normalize;
+  torch::nn::Conv2d first{nullptr}, second{nullptr};
+};
+TORCH_MODULE(ResidualBlock);
+
+// Identity encoder: a few convolutions down to 1/4 resolution, then residual blocks.
+struct EncoderImpl : torch::nn::Module {
+  EncoderImpl(int in, int c, int blocks) {
+    layers = register_module("layers", torch::nn::Sequential());
+    layers->push_back(Conv(in, c, 3));
+    layers->push_back(torch::nn::ReLU());
+    layers->push_back(Conv(c, 2 * c, 4, 2));
+    layers->push_back(torch::nn::ReLU());
+    layers->push_back(Conv(2 * c, 4 * c, 4, 2));
+    layers->push_back(torch::nn::ReLU());
+    for (int b = 0; b < blocks; ++b) layers->push_back(ResidualBlock(4 * c, false));
+  }
+  torch::Tensor forward(const torch::Tensor& x) { return layers->forward(x); }
+  torch::nn::Sequential layers{nullptr};
+};
+TORCH_MODULE(Encoder);
+
+// Blendshape decoder: an instance-normalized residual block, two upscaling convolutions and a
+// 1x1 output convolution initialized to zero (the generator starts at the template, eq. 3).
+struct DecoderImpl : torch::nn::Module {
+  DecoderImpl(int c, int out) {
+    block = register_module("block", ResidualBlock(4 * c, true));
+    up1 = register_module("up1", Conv(4 * c, 2 * c, 3));
+    up2 = register_module("up2", Conv(2 * c, c, 3));
+    output = register_module("output", Conv(c, out, 1));
+    torch::NoGradGuard no_grad;
+    output->weight.zero_();
+    output->bias.zero_();
+  }
+  torch::Tensor forward(const torch::Tensor& x) {
+    auto upsample = [](const torch::Tensor& t) {
+      return F::interpolate(t, F::InterpolateFuncOptions().scale_factor(std::vector<double>{2, 2}).mode(torch::kNearest));
+    };
+    torch::Tensor y = block->forward(x);
+    y = torch::relu(up1->forward(upsample(y)));
+    y = torch::relu(up2->forward(upsample(y)));
+    return output->forward(y);
+  }
+  std::shared_ptr<ResidualBlockImpl> block{nullptr};
+  torch::nn::Conv2d up1{nullptr}, up2{nullptr}, output{nullptr};
+};
+TORCH_MODULE(Decoder);
+
+// Blendshape Generator: encoder + two branches; output channels are [N * 3] in shape order.
+struct GeneratorImpl : torch::nn::Module {
+  GeneratorImpl(int in, int c, int blocks, const std::vector<int>& large, int num_shapes) {
+    encoder = register_module("encoder", Encoder(in, c, blocks));
+    std::vector<uint8_t> is_large(num_shapes, 0);
+    for (int i : large) is_large[i] = 1;
+    std::vector<int64_t> order_large, order_small;
+    for (int i = 0; i < num_shapes; ++i) (is_large[i] ? order_large : order_small).push_back(i);
+    large_branch = register_module("large", Decoder(c, 3 * static_cast<int>(order_large.size())));
+    small_branch = register_module("small", Decoder(c, 3 * static_cast<int>(order_small.size())));
+    // Channel permutation from [large..., small...] back to shape order.
+    std::vector<int64_t> position(num_shapes);
+    for (size_t k = 0; k < order_large.size(); ++k) position[order_large[k]] = static_cast<int64_t>(k);
+    for (size_t k = 0; k < order_small.size(); ++k) position[order_small[k]] = static_cast<int64_t>(order_large.size() + k);
+    std::vector<int64_t> channels;
+    for (int i = 0; i < num_shapes; ++i) for (int d = 0; d < 3; ++d) channels.push_back(3 * position[i] + d);
+    permutation = torch::tensor(channels, torch::kLong);
+    has_large = !order_large.empty();
+    has_small = !order_small.empty();
+  }
+  torch::Tensor forward(const torch::Tensor& x) {
+    const torch::Tensor code = encoder->forward(x);
+    std::vector<torch::Tensor> parts;
+    if (has_large) parts.push_back(large_branch->forward(code));
+    if (has_small) parts.push_back(small_branch->forward(code));
+    return torch::cat(parts, 1).index_select(1, permutation);
+  }
+  Encoder encoder{nullptr};
+  Decoder large_branch{nullptr}, small_branch{nullptr};
+  torch::Tensor permutation;
+  bool has_large = false, has_small = false;
+};
+TORCH_MODULE(Generator);
+
+// Blending Weight Predictor: expression encoder to N weights in [0, 1]. The output layer
+// starts at zero so the first prediction is the nominal FACS weights (squashed to 0.02/0.98).
+struct WeightPredictorImpl : torch::nn::Module {
+  WeightPredictorImpl(int in, int c, int num_shapes) {
+    layers = register_module("layers", torch::nn::Sequential());
+    layers->push_back(torch::nn::AvgPool2d(torch::nn::AvgPool2dOptions(2)));
+    layers->push_back(Conv(in, c, 4, 2));
+    layers->push_back(torch::nn::ReLU());
+    layers->push_back(Conv(c, 2 * c, 4, 2));
+    layers->push_back(torch::nn::ReLU());
+    layers->push_back(Conv(2 * c, 2 * c, 4, 2));
+    layers->push_back(torch::nn::ReLU());
+    layers->push_back(torch::nn::AdaptiveAvgPool2d(torch::nn::AdaptiveAvgPool2dOptions({4, 4})));
+    layers->push_back(torch::nn::Flatten());
+    output = register_module("output", torch::nn::Linear(2 * c * 16, num_shapes));
+    torch::NoGradGuard no_grad;
+    output->weight.zero_();
+    output->bias.zero_();
+  }
+  torch::Tensor forward(const torch::Tensor& x, const torch::Tensor& nominal) {
+    return torch::sigmoid(8.f * (nominal - 0.5f) + output->forward(layers->forward(x)));
+  }
+  torch::nn::Sequential layers{nullptr};
+  torch::nn::Linear output{nullptr};
+};
+TORCH_MODULE(WeightPredictor);
+
+}  // namespace
+
+bool BlendshapeNetOptions::Check(std::string* why) const {
+  if (channels < 2 || channels > 128) { *why = "channels must be in [2, 128]"; return false; }
+  if (residual_blocks < 0 || residual_blocks > 8) { *why = "residual_blocks must be in [0, 8]"; return false; }
+  if (!(learning_rate > 0.f && learning_rate < 1.f)) { *why = "learning_rate must be in (0, 1)"; return false; }
+  if (!(reg_weight >= 0.f)) { *why = "reg_weight must be >= 0"; return false; }
+  if (!(tuning_reg_weight >= 0.f)) { *why = "tuning_reg_weight must be >= 0"; return false; }
+  return true;
+}
+
+void SetTensorThreads(int threads) {
+  if (threads > 0) torch::set_num_threads(threads);
+}
+
+struct BlendshapeGenerator::Impl {
+  BlendshapeNetOptions options;
+  std::shared_ptr<const BlendshapeNetGeometry> geometry;
+  Generator generator{nullptr};        // Estimation Stage
+  Generator tuning{nullptr};           // Tuning Stage generator (skip connection on its output)
+  torch::nn::Conv2d offsets_in{nullptr};  // initial offsets image -> c channels (tuning input)
+  WeightPredictor predictor{nullptr};
+  std::vector<torch::Tensor> parameters;
+  int64_t estimation_end = 0;          // parameters [0, estimation_end) are the generator's
+  int64_t num_parameters = 0;
+  std::vector<float> gradient, adam_m, adam_v;
+  int64_t steps[2] = {0, 0};
+  torch::Tensor template_deltas, reg_weights, sample_pixels, sample_weights, static_channels;
+
+  int64_t N() const { return geometry->num_shapes; }
+  int64_t A() const { return geometry->num_chart_vertices; }
+  int64_t H() const { return geometry->image_size; }
+
+  torch::Tensor WithStatic(const torch::Tensor& images) const {
+    if (geometry->num_static_channels == 0) return images;
+    return torch::cat({images, static_channels.expand({images.size(0), -1, -1, -1})}, 1);
+  }
+  // [B, N*3, H, W] image -> [B, N, A, 3] per chart vertex (bilinear).
+  torch::Tensor Sample(const torch::Tensor& image) const {
+    const int64_t B = image.size(0), C = image.size(1);
+    torch::Tensor flat = image.reshape({B, C, H() * H()}).index_select(2, sample_pixels);
+    torch::Tensor values = (flat.reshape({B, C, A(), 4}) * sample_weights).sum(-1);
+    return values.reshape({B, N(), 3, A()}).permute({0, 1, 3, 2});
+  }
+  torch::Tensor TuningResidual(const torch::Tensor& input, const torch::Tensor& initial_image) {
+    return tuning->forward(torch::cat({input, torch::relu(offsets_in->forward(initial_image))}, 1));
+  }
+};
+
+BlendshapeGenerator::BlendshapeGenerator(const BlendshapeNetOptions& options,
+                                         std::shared_ptr<const BlendshapeNetGeometry> geometry)
+    : impl_(std::make_unique<Impl>()) {
+  std::string why;
+  if (!options.Check(&why)) throw InvalidInputError("blendshape generator: " + why);
+  const BlendshapeNetGeometry& g = *geometry;
+  if (g.image_size % 4 != 0 || g.num_shapes <= 0 || g.num_chart_vertices <= 0 ||
+      g.template_deltas.size() != static_cast<size_t>(g.num_shapes) * g.num_chart_vertices * 3 ||
+      g.reg_weights.size() != static_cast<size_t>(g.num_shapes) * g.num_chart_vertices ||
+      g.sample_pixels.size() != static_cast<size_t>(g.num_chart_vertices) * 4 ||
+      g.sample_weights.size() != g.sample_pixels.size() ||
+      g.static_channels.size() != static_cast<size_t>(g.num_static_channels) * g.image_size * g.image_size) {
+    throw InvalidInputError("blendshape generator: inconsistent geometry sizes");
+  }
+  Impl& m = *impl_;
+  m.options = options;
+  m.geometry = geometry;
+  torch::manual_seed(static_cast<uint64_t>(options.seed));
+  const int c = options.channels, in = 3 + g.num_static_channels;
+  m.generator = Generator(in, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes);
+  m.tuning = Generator(in + c, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes);
+  m.offsets_in = Conv(3 * g.num_shapes, c, 1);
+  m.predictor = WeightPredictor(in, c, g.num_shapes);
+  for (auto& p : m.generator->parameters()) m.parameters.push_back(p);
+  m.estimation_end = static_cast<int64_t>(m.parameters.size());
+  for (auto& p : m.tuning->parameters()) m.parameters.push_back(p);
+  for (auto& p : m.offsets_in->parameters()) m.parameters.push_back(p);
+  for (auto& p : m.predictor->parameters()) m.parameters.push_back(p);
+  for (auto& p : m.parameters) m.num_parameters += p.numel();
+  m.gradient.assign(m.num_parameters, 0.f);
+  m.adam_m.assign(m.num_parameters, 0.f);
+  m.adam_v.assign(m.num_parameters, 0.f);
+  auto f32 = torch::TensorOptions().dtype(torch::kFloat32);
+  m.template_deltas = torch::from_blob(const_cast<float*>(g.template_deltas.data()),
+                                       {g.num_shapes, g.num_chart_vertices, 3}, f32).clone();
+  m.reg_weights = torch::from_blob(const_cast<float*>(g.reg_weights.data()),
+                                   {g.num_shapes, g.num_chart_vertices}, f32).clone();
+  std::vector<int64_t> pixels(g.sample_pixels.begin(), g.sample_pixels.end());
+  m.sample_pixels = torch::tensor(pixels, torch::kLong);
+  m.sample_weights = torch::from_blob(const_cast<float*>(g.sample_weights.data()),
+                                      {g.num_chart_vertices, 4}, f32).clone();
+  m.static_channels = torch::from_blob(const_cast<float*>(g.static_channels.data()),
+                                       {1, g.num_static_channels, g.image_size, g.image_size}, f32).clone();
+}
+
+BlendshapeGenerator::~BlendshapeGenerator() = default;
+
+int64_t BlendshapeGenerator::NumParameters() const { return impl_->num_parameters; }
+float* BlendshapeGenerator::GradientBuffer() { return impl_->gradient.data(); }
+
+double BlendshapeGenerator::Backward(const std::vector<const BlendshapePerson*>& batch,
+                                     TrainingStage stage, float loss_scale,
+                                     double* reconstruction) {
+  Impl& m = *impl_;
+  std::fill(m.gradient.begin(), m.gradient.end(), 0.f);
+  if (reconstruction) *reconstruction = 0;
+  if (batch.empty()) return 0;
+  for (auto& p : m.parameters) {
+    if (p.grad().defined()) p.mutable_grad() = torch::Tensor();
+  }
+  const int64_t B = static_cast<int64_t>(batch.size()), N = m.N(), A = m.A(), H = m.H();
+  const int64_t K = batch[0]->num_expressions;
+  std::vector<float> neutral_images, neutrals, expressions, nominal, expression_images;
+  for (const BlendshapePerson* p : batch) {
+    if (p->num_expressions != K) throw InvalidInputError("blendshape training: people differ in expression count");
+    neutral_images.insert(neutral_images.end(), p->neutral_image.begin(), p->neutral_image.end());
+    neutrals.insert(neutrals.end(), p->neutral.begin(), p->neutral.end());
+    expressions.insert(expressions.end(), p->expressions.begin(), p->expressions.end());
+    nominal.insert(nominal.end(), p->nominal_weights.begin(), p->nominal_weights.end());
+    if (stage == TrainingStage::kTuning) {
+      expression_images.insert(expression_images.end(), p->expression_images.begin(), p->expression_images.end());
+    }
+  }
+  auto f32 = torch::TensorOptions().dtype(torch::kFloat32);
+  const torch::Tensor input = m.WithStatic(torch::from_blob(neutral_images.data(), {B, 3, H, H}, f32));
+  const torch::Tensor neutral = torch::from_blob(neutrals.data(), {B, 1, A * 3}, f32);
+  const torch::Tensor target = torch::from_blob(expressions.data(), {B, K, A * 3}, f32);
+  const torch::Tensor alpha = torch::from_blob(nominal.data(), {B, K, N}, f32);
+
+  torch::Tensor offsets, weights, regularization;
+  if (stage == TrainingStage::kEstimation) {
+    offsets = m.Sample(m.generator->forward(input));                      // Delta S_i, [B,N,A,3]
+    weights = alpha;
+    // L_reg (eq. 4): sum_i g_i m_i(x) |Delta S_i(x)|_1, as a mean over shapes and vertices.
+    regularization = (m.reg_weights * offsets.abs().sum(-1)).mean({1, 2});
+  } else {
+    torch::Tensor initial_image;
+    {
+      torch::NoGradGuard no_grad;
+      initial_image = m.generator->forward(input);
+    }
+    const torch::Tensor residual = m.Sample(m.TuningResidual(input, initial_image));  // skip
+    offsets = m.Sample(initial_image) + residual;                          // Delta S_i_FT
+    const torch::Tensor images =
+        m.WithStatic(torch::from_blob(expression_images.data(), {B * K, 3, H, H}, f32));
+    weights = m.predictor->forward(images, alpha.reshape({B * K, N})).reshape({B, K, N});
+    // L_reg_FT (eq. 8): |Delta S_i_FT - Delta S_i|_1, mean over shapes and vertices.
+    regularization = residual.abs().sum(-1).mean({1, 2});
+  }
+  const torch::Tensor shapes = (m.template_deltas + offsets).reshape({B, N, A * 3});  // eq. 3
+  const torch::Tensor rebuilt = neutral + torch::bmm(weights, shapes);                 // eq. 1
+  // L_rec (eq. 2): per-vertex L1, mean over scans and vertices.
+  const torch::Tensor rec = (rebuilt - target).abs().reshape({B, K, A, 3}).sum(-1).mean({1, 2});
+  const float omega = stage == TrainingStage::kEstimation ? m.options.reg_weight : m.options.tuning_reg_weight;
+  const torch::Tensor loss = (rec + omega * regularization).sum() * loss_scale;
+  loss.backward();
+  int64_t offset = 0;
+  for (auto& p : m.parameters) {
+    const int64_t n = p.numel();
+    if (p.grad().defined()) {
+      const torch::Tensor g = p.grad().contiguous();
+      std::copy(g.data_ptr<float>(), g.data_ptr<float>() + n, m.gradient.begin() + offset);
+    }
+    offset += n;
+  }
+  if (reconstruction) *reconstruction = rec.sum().item<double>();
+  return loss.item<double>();
+}
+
+void BlendshapeGenerator::OptimizerStep(TrainingStage stage) {
+  Impl& m = *impl_;
+  const int s = static_cast<int>(stage);
+  const int64_t t = ++m.steps[s];
+  const double beta1 = 0.9, beta2 = 0.999, eps = 1e-8;
+  const double correction1 = 1.0 - std::pow(beta1, static_cast<double>(t));
+  const double correction2 = 1.0 - std::pow(beta2, static_cast<double>(t));
+  const double lr = m.options.learning_rate;
+  const size_t begin = stage == TrainingStage::kEstimation ? 0 : m.estimation_end;
+  const size_t end = stage == TrainingStage::kEstimation ? m.estimation_end : m.parameters.size();
+  int64_t offset = 0;
+  torch::NoGradGuard no_grad;
+  for (size_t k = 0; k < m.parameters.size(); ++k) {
+    torch::Tensor& p = m.parameters[k];
+    const int64_t n = p.numel();
+    if (k >= begin && k < end) {
+      float* data = p.data_ptr<float>();
+      for (int64_t j = 0; j < n; ++j) {
+        const int64_t i = offset + j;
+        const double g = m.gradient[i];
+        m.adam_m[i] = static_cast<float>(beta1 * m.adam_m[i] + (1 - beta1) * g);
+        m.adam_v[i] = static_cast<float>(beta2 * m.adam_v[i] + (1 - beta2) * g * g);
+        const double mhat = m.adam_m[i] / correction1, vhat = m.adam_v[i] / correction2;
+        data[j] = static_cast<float>(data[j] - lr * mhat / (std::sqrt(vhat) + eps));
+      }
+    }
+    offset += n;
+  }
+}
+
+std::vector<float> BlendshapeGenerator::Parameters() const {
+  std::vector<float> out;
+  out.reserve(impl_->num_parameters);
+  for (const auto& p : impl_->parameters) {
+    const torch::Tensor c = p.detach().contiguous();
+    out.insert(out.end(), c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
+  }
+  return out;
+}
+
+void BlendshapeGenerator::SetParameters(const std::vector<float>& parameters) {
+  if (static_cast<int64_t>(parameters.size()) != impl_->num_parameters) {
+    throw FileIOError("blendshape generator: " + std::to_string(parameters.size()) +
+                      " parameters given, the networks have " + std::to_string(impl_->num_parameters));
+  }
+  torch::NoGradGuard no_grad;
+  int64_t offset = 0;
+  for (auto& p : impl_->parameters) {
+    std::copy(parameters.begin() + offset, parameters.begin() + offset + p.numel(), p.data_ptr<float>());
+    offset += p.numel();
+  }
+}
+
+std::vector<float> BlendshapeGenerator::State() const {
+  std::vector<float> state = Parameters();
+  state.insert(state.end(), impl_->adam_m.begin(), impl_->adam_m.end());
+  state.insert(state.end(), impl_->adam_v.begin(), impl_->adam_v.end());
+  state.push_back(static_cast<float>(impl_->steps[0]));
+  state.push_back(static_cast<float>(impl_->steps[1]));
+  return state;
+}
+
+void BlendshapeGenerator::SetState(const std::vector<float>& state) {
+  Impl& m = *impl_;
+  const int64_t n = m.num_parameters;
+  if (static_cast<int64_t>(state.size()) != 3 * n + 2) {
+    throw FileIOError("blendshape generator: checkpoint state has the wrong size");
+  }
+  SetParameters(std::vector<float>(state.begin(), state.begin() + n));
+  std::copy(state.begin() + n, state.begin() + 2 * n, m.adam_m.begin());
+  std::copy(state.begin() + 2 * n, state.begin() + 3 * n, m.adam_v.begin());
+  m.steps[0] = static_cast<int64_t>(state[3 * n]);
+  m.steps[1] = static_cast<int64_t>(state[3 * n + 1]);
+}
+
+std::vector<float> BlendshapeGenerator::PredictOffsets(const std::vector<float>& neutral_image,
+                                                       bool tuned) const {
+  Impl& m = *impl_;  // modules' forward is not const
+  torch::NoGradGuard no_grad;
+  const int64_t H = m.H();
+  if (static_cast<int64_t>(neutral_image.size()) != 3 * H * H) {
+    throw InvalidInputError("blendshape generator: neutral image has the wrong size");
+  }
+  const torch::Tensor input = m.WithStatic(torch::from_blob(const_cast<float*>(neutral_image.data()),
+                                                            {1, 3, H, H}, torch::kFloat32));
+  torch::Tensor image = m.generator->forward(input);
+  if (tuned) image = image + m.TuningResidual(input, image);
+  const torch::Tensor offsets = m.Sample(image).contiguous();
+  return std::vector<float>(offsets.data_ptr<float>(), offsets.data_ptr<float>() + offsets.numel());
+}
+
+}  // namespace facecap::nn

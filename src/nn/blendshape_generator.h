@@ -1,0 +1,112 @@
+// Blendshape generation from one neutral scan (paper 001 Sec. 4): the Blendshape Generator
+// (a CNN encoder-decoder on the neutral's geometry image with two decoder branches, for the
+// large-motion and the small-motion shapes) and, for the Tuning Stage, a second generator fed
+// the initial offsets with a skip connection plus the Blending Weight Predictor.
+//
+// Torch stays in blendshape_generator.cpp; this header takes plain arrays. Training follows
+// facecap's data-parallel pattern: each rank calls Backward on its share of the batch, the
+// controller sums GradientBuffer() over ranks (dist::Comm::SumReduce), and OptimizerStep applies
+// Adam, bitwise the same on every rank.
+//
+// Layouts: images are channels-first [C, H, W] floats; per-vertex arrays are [A, 3] over the
+// A chart vertices of the geometry image; shapes [N, A, 3]; weights [K, N].
+#ifndef FACECAP_NN_BLENDSHAPE_GENERATOR_H_
+#define FACECAP_NN_BLENDSHAPE_GENERATOR_H_
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace facecap::nn {
+
+struct BlendshapeNetOptions {
+  int channels = 12;              // feature channels of the first generator layer (x2, x4 deeper)
+  int residual_blocks = 2;        // encoder residual blocks at 1/4 resolution
+  float learning_rate = 2e-3f;    // Adam step size
+  float reg_weight = 1.f;         // omega_reg of L_G = L_rec + omega_reg L_reg (eq. 7)
+  float tuning_reg_weight = 0.1f; // omega_reg_FT of L_G_FT (eq. 9)
+  int seed = 1;                   // parameter initialization seed
+
+  template <class V>
+  void Visit(V&& v) {
+    v("channels", channels, "feature channels of the first generator layer (doubled twice deeper)");
+    v("residual_blocks", residual_blocks, "encoder residual blocks at quarter resolution");
+    v("learning_rate", learning_rate, "Adam step size");
+    v("reg_weight", reg_weight, "omega_reg: weight of L_reg in the Estimation Stage (eq. 7)");
+    v("tuning_reg_weight", tuning_reg_weight, "omega_reg_FT: weight of L_reg_FT in the Tuning Stage (eq. 9)");
+    v("net_seed", seed, "parameter initialization seed");
+  }
+  bool Check(std::string* why) const;
+};
+
+// What the networks need that is the same for every person.
+struct BlendshapeNetGeometry {
+  int image_size = 64;                   // H = W of the geometry images
+  int num_shapes = 0;                    // N
+  int num_chart_vertices = 0;            // A
+  std::vector<int> large_motion_shapes;  // shapes of the large-motion branch (the rest: small)
+  std::vector<float> template_deltas;    // S_i on the chart vertices, [N, A, 3] (cm)
+  std::vector<float> reg_weights;        // g_i m_i(x) of eq. 4-6, [N, A]
+  std::vector<int32_t> sample_pixels;    // bilinear stencil of each chart vertex, [A, 4]
+  std::vector<float> sample_weights;     // its weights, [A, 4]
+  std::vector<float> static_channels;    // constant input channels [C_s, H, W] (template, mask)
+  int num_static_channels = 0;           // C_s
+};
+
+// One training person.
+struct BlendshapePerson {
+  std::vector<float> neutral_image;      // normalized identity displacement image [3, H, W]
+  std::vector<float> neutral;            // S_0^j on the chart vertices [A, 3] (cm)
+  std::vector<float> expressions;        // P_k^j on the chart vertices [K, A, 3] (cm)
+  std::vector<float> expression_images;  // normalized (P_k^j - S_0^j) images [K, 3, H, W]
+  std::vector<float> nominal_weights;    // alpha_k, the FACS table's 0/1 weights [K, N]
+  int num_expressions = 0;               // K
+};
+
+enum class TrainingStage { kEstimation = 0, kTuning = 1 };
+
+class BlendshapeGenerator {
+ public:
+  BlendshapeGenerator(const BlendshapeNetOptions& options,
+                      std::shared_ptr<const BlendshapeNetGeometry> geometry);
+  ~BlendshapeGenerator();
+  BlendshapeGenerator(const BlendshapeGenerator&) = delete;
+  BlendshapeGenerator& operator=(const BlendshapeGenerator&) = delete;
+
+  // Parameters of all networks, flattened in a fixed order.
+  int64_t NumParameters() const;
+  // Forward and backward of the stage's loss summed over `batch`, times loss_scale (use
+  // 1 / global batch size); gradients replace GradientBuffer(). Returns the scaled loss; the
+  // unscaled reconstruction term L_rec (mean cm per vertex, summed over the batch) goes to
+  // *reconstruction when not null.
+  double Backward(const std::vector<const BlendshapePerson*>& batch, TrainingStage stage,
+                  float loss_scale, double* reconstruction = nullptr);
+  // NumParameters() floats: the gradient of the last Backward (reduce it across ranks).
+  float* GradientBuffer();
+  // Adam on GradientBuffer() for the stage's networks (Estimation: generator; Tuning: tuning
+  // generator and weight predictor; the other networks stay fixed).
+  void OptimizerStep(TrainingStage stage);
+
+  // Everything a checkpoint needs: parameters, Adam moments and step counts.
+  std::vector<float> State() const;
+  void SetState(const std::vector<float>& state);
+  // Parameters only (what inference needs).
+  std::vector<float> Parameters() const;
+  void SetParameters(const std::vector<float>& parameters);
+
+  // The personalized offsets Delta S_i (eq. 3) for one neutral image [3, H, W]: [N, A, 3]
+  // (cm). tuned: Estimation + Tuning generator (the final shapes); else Estimation only.
+  std::vector<float> PredictOffsets(const std::vector<float>& neutral_image, bool tuned) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Sets the intra-op threads of the tensor library for this process.
+void SetTensorThreads(int threads);
+
+}  // namespace facecap::nn
+
+#endif  // FACECAP_NN_BLENDSHAPE_GENERATOR_H_

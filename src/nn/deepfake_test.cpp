@@ -1,0 +1,251 @@
+// The deepfake trainer on tiny images: the gradient buffer of a split batch sums to the
+// gradient of the whole batch (what the allreduce relies on), training is deterministic, a
+// checkpoint continues bitwise, the loss falls, and bad checkpoints are named.
+#include "nn/deepfake.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "nn/augment.h"
+#include "nn/deepfake_io.h"
+#include "testing/testing.h"
+#include "util/errors.h"
+#include "util/random.h"
+
+namespace facecap::nn {
+namespace {
+
+constexpr int kSize = 16;
+
+DeepfakeNetworkOptions TinyNetwork() {
+  DeepfakeNetworkOptions o;
+  o.size = kSize;
+  o.encoder_width = 8;
+  o.latent_resolution = 4;
+  o.latent_channels = 8;
+  o.decoder_width = 8;
+  o.discriminator_width = 8;
+  return o;
+}
+
+// Domain A: flat coloured discs on black; domain B: the same discs, other colours, noise.
+std::vector<uint8_t> TinyImages(int count, bool domain_b, uint64_t seed) {
+  std::vector<uint8_t> images(static_cast<size_t>(count) * kSize * kSize * 3, 0);
+  for (int i = 0; i < count; ++i) {
+    Rng rng(seed, i);
+    const float cx = rng.Uniform(5, 11), cy = rng.Uniform(5, 11), r = rng.Uniform(2.5, 5);
+    for (int y = 0; y < kSize; ++y) {
+      for (int x = 0; x < kSize; ++x) {
+        uint8_t* p = &images[((static_cast<size_t>(i) * kSize + y) * kSize + x) * 3];
+        const bool inside = (x - cx) * (x - cx) + (y - cy) * (y - cy) < r * r;
+        const int noise = domain_b ? static_cast<int>(rng.Uniform(-20, 20)) : 0;
+        const int rgb[3] = {inside ? (domain_b ? 200 : 250) : (domain_b ? 60 : 0),
+                            inside ? (domain_b ? 150 : 40) : (domain_b ? 70 : 0),
+                            inside ? (domain_b ? 120 : 40) : (domain_b ? 90 : 0)};
+        for (int c = 0; c < 3; ++c) p[c] = static_cast<uint8_t>(std::clamp(rgb[c] + noise, 0, 255));
+      }
+    }
+  }
+  return images;
+}
+
+TrainingBatch MakeBatch(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, int first,
+                        int count, uint64_t seed) {
+  TrainingBatch batch;
+  batch.count = count;
+  batch.size = kSize;
+  const size_t n = static_cast<size_t>(count) * kSize * kSize * 3, one = kSize * kSize * 3;
+  batch.input_a.resize(n); batch.target_a.resize(n);
+  batch.input_b.resize(n); batch.target_b.resize(n);
+  AugmentOptions augment;
+  for (int i = 0; i < count; ++i) {
+    Rng rng(seed, first + i);
+    AugmentPair(&a[(first + i) * one], kSize, kSize, augment, false, &rng, &batch.input_a[i * one],
+                &batch.target_a[i * one]);
+    AugmentPair(&b[(first + i) * one], kSize, kSize, augment, true, &rng, &batch.input_b[i * one],
+                &batch.target_b[i * one]);
+  }
+  return batch;
+}
+
+TrainingBatch Slice(const TrainingBatch& batch, int first, int count) {
+  TrainingBatch s;
+  s.count = count;
+  s.size = batch.size;
+  const size_t one = static_cast<size_t>(batch.size) * batch.size * 3;
+  auto cut = [&](const std::vector<float>& v) {
+    return std::vector<float>(v.begin() + first * one, v.begin() + (first + count) * one);
+  };
+  s.input_a = cut(batch.input_a); s.target_a = cut(batch.target_a);
+  s.input_b = cut(batch.input_b); s.target_b = cut(batch.target_b);
+  return s;
+}
+
+class DeepfakeTrainerTest : public ::testing::Test {
+ protected:
+  void SetUp() override { SetTorchThreads(1); }
+  std::vector<uint8_t> a_ = TinyImages(16, false, 1), b_ = TinyImages(16, true, 2);
+};
+
+TEST_F(DeepfakeTrainerTest, LayoutCoversOneContiguousBufferWithModulePaths) {
+  DeepfakeModel model(TinyNetwork(), 7);
+  int64_t next = 0;
+  for (const TensorSlot& s : model.ParameterLayout()) {
+    EXPECT_EQ(s.offset, next) << s.name;
+    next += s.count;
+  }
+  EXPECT_EQ(next, model.num_parameters());
+  EXPECT_EQ(model.ParameterLayout().front().name, "encoder/down0/weight");
+  EXPECT_EQ(model.ParameterLayout().back().name, "latent_discriminator/score/bias");
+}
+
+TEST_F(DeepfakeTrainerTest, SharesOfASplitBatchSumToTheWholeBatchGradient) {
+  const TrainingBatch batch = MakeBatch(a_, b_, 0, 6, 3);
+  DeepfakeModel model(TinyNetwork(), 7);
+  DeepfakeTrainer trainer(&model, DeepfakeLossOptions{});
+  const DeepfakeLosses whole = trainer.Backward(batch, 1.0);
+  const std::vector<float> full(trainer.gradients(), trainer.gradients() + trainer.num_gradients());
+  // Two "ranks" with 4 and 2 images, each weighting its mean by its share of the batch.
+  std::vector<float> sum(full.size(), 0.f);
+  DeepfakeLosses parts[2];
+  parts[0] = trainer.Backward(Slice(batch, 0, 4), 4.0 / 6.0);
+  for (size_t i = 0; i < sum.size(); ++i) sum[i] += trainer.gradients()[i];
+  parts[1] = trainer.Backward(Slice(batch, 4, 2), 2.0 / 6.0);
+  for (size_t i = 0; i < sum.size(); ++i) sum[i] += trainer.gradients()[i];
+  // Recon and adversarial terms are per-image means: the shares reproduce them exactly up to
+  // rounding; the DSSIM window means are per image too.
+  double max_err = 0, max_abs = 0;
+  for (size_t i = 0; i < sum.size(); ++i) {
+    max_err = std::max(max_err, static_cast<double>(std::abs(sum[i] - full[i])));
+    max_abs = std::max(max_abs, static_cast<double>(std::abs(full[i])));
+  }
+  EXPECT_GT(max_abs, 0);
+  EXPECT_LT(max_err, 1e-4 * max_abs);
+  EXPECT_NEAR(parts[0].recon_a + parts[1].recon_a, whole.recon_a, 1e-5);
+  EXPECT_NEAR(parts[0].latent_discriminator + parts[1].latent_discriminator,
+              whole.latent_discriminator, 1e-5);
+}
+
+TEST_F(DeepfakeTrainerTest, LossFallsOnATinyDataset) {
+  DeepfakeModel model(TinyNetwork(), 7);
+  DeepfakeLossOptions losses;
+  losses.learning_rate = 2e-3f;
+  DeepfakeTrainer trainer(&model, losses);
+  double first = 0, last = 0;
+  const int steps = 60;
+  for (int step = 0; step < steps; ++step) {
+    const DeepfakeLosses l = trainer.Backward(MakeBatch(a_, b_, (step * 4) % 12, 4, step), 1.0);
+    trainer.OptimizerStep();
+    if (step < 5) first += l.recon_a + l.recon_b;
+    if (step >= steps - 5) last += l.recon_a + l.recon_b;
+  }
+  EXPECT_EQ(trainer.step(), steps);
+  EXPECT_LT(last, 0.6 * first) << "first 5 steps " << first / 5 << ", last 5 steps " << last / 5;
+}
+
+TEST_F(DeepfakeTrainerTest, CheckpointContinuesBitwiseLikeTrainingStraightThrough) {
+  testing::TempDir dir;
+  auto train = [&](DeepfakeTrainer* trainer, int from, int to) {
+    for (int step = from; step < to; ++step) {
+      trainer->Backward(MakeBatch(a_, b_, step % 12, 4, step), 1.0);
+      trainer->OptimizerStep();
+    }
+  };
+  DeepfakeModel straight_model(TinyNetwork(), 7);
+  DeepfakeTrainer straight(&straight_model, DeepfakeLossOptions{});
+  train(&straight, 0, 6);
+
+  const std::string path = dir.File("ckpt.h5");
+  {
+    DeepfakeModel model(TinyNetwork(), 7);
+    DeepfakeTrainer trainer(&model, DeepfakeLossOptions{});
+    train(&trainer, 0, 3);
+    io::H5File f = io::H5File::CreateAtomic(path);
+    WriteWeights(&f, &model);
+    WriteTrainingState(&f, &trainer, {trainer.step(), 5});
+    f.Commit();
+  }
+  DeepfakeModel resumed_model(TinyNetwork(), 99);  // other initial weights: all are replaced
+  DeepfakeTrainer resumed(&resumed_model, DeepfakeLossOptions{});
+  {
+    io::H5File f = io::H5File::OpenRead(path);
+    ReadWeights(f, &resumed_model);
+    const TrainingState state = ReadTrainingState(f, &resumed);
+    EXPECT_EQ(state.step, 3);
+    EXPECT_EQ(state.rng_seed, 5u);
+  }
+  train(&resumed, 3, 6);
+  EXPECT_EQ(resumed.step(), 6);
+  EXPECT_EQ(resumed_model.ParameterHash(), straight_model.ParameterHash());
+  EXPECT_EQ(0, std::memcmp(resumed.first_moments(), straight.first_moments(),
+                           sizeof(float) * straight.num_gradients()));
+}
+
+TEST_F(DeepfakeTrainerTest, MismatchedOrTruncatedCheckpointsAreNamed) {
+  testing::TempDir dir;
+  const std::string path = dir.File("model.h5");
+  {
+    DeepfakeModel model(TinyNetwork(), 7);
+    io::H5File f = io::H5File::CreateAtomic(path);
+    WriteWeights(&f, &model);
+    f.Commit();
+  }
+  DeepfakeNetworkOptions wider = TinyNetwork();
+  wider.encoder_width = 12;
+  DeepfakeModel other(wider, 7);
+  try {
+    ReadWeights(io::H5File::OpenRead(path), &other);
+    FAIL() << "a checkpoint of another width was accepted";
+  } catch (const FileIOError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("/weights/encoder/down0/weight has shape [8, 3, 5, 5], the network "
+                        "expects [12, 3, 5, 5]"), std::string::npos) << what;
+  }
+  // The stored architecture rebuilds the right network.
+  EXPECT_EQ(ReadNetworkOptions(io::H5File::OpenRead(path)).encoder_width, 8);
+  // A truncated file.
+  const auto bytes = std::filesystem::file_size(path);
+  std::filesystem::resize_file(path, bytes / 2);
+  EXPECT_THROW(
+      {
+        io::H5File f = io::H5File::OpenRead(path);
+        DeepfakeModel model(TinyNetwork(), 7);
+        ReadWeights(f, &model);
+      },
+      FileIOError);
+}
+
+TEST_F(DeepfakeTrainerTest, TranslateWritesImagesAndBothCodes) {
+  DeepfakeModel model(TinyNetwork(), 7);
+  const int64_t latent = model.options().LatentSize();
+  std::vector<uint8_t> out(2 * kSize * kSize * 3);
+  std::vector<float> code(2 * latent), code2(2 * latent);
+  model.Translate(b_.data(), 2, DeepfakeModel::Decoder::kA, out.data(), code.data(), code2.data());
+  // Batch of one gives the same first image as the batch of two.
+  std::vector<uint8_t> one(kSize * kSize * 3);
+  std::vector<float> code_one(latent);
+  model.Translate(b_.data(), 1, DeepfakeModel::Decoder::kA, one.data(), code_one.data(), nullptr);
+  for (int64_t i = 0; i < latent; ++i) EXPECT_NEAR(code_one[i], code[i], 1e-5);
+  EXPECT_NE(code, code2);
+}
+
+TEST(Augment, NeutralOptionsReproduceTheImage) {
+  AugmentOptions none;
+  none.warp = 0; none.rotate_deg = 0; none.scale = 0; none.shift = 0; none.flip = false;
+  none.color_jitter = 0;
+  const std::vector<uint8_t> image = TinyImages(1, true, 4);
+  std::vector<float> input(image.size()), target(image.size());
+  Rng rng(1, 2);
+  AugmentPair(image.data(), kSize, kSize, none, true, &rng, input.data(), target.data());
+  for (size_t i = 0; i < image.size(); ++i) {
+    ASSERT_NEAR(target[i] * 255.f, image[i], 1e-3) << i;
+    ASSERT_EQ(input[i], target[i]);
+  }
+}
+
+}  // namespace
+}  // namespace facecap::nn

@@ -1,0 +1,687 @@
+// facecap blendshapes train | baselines | infer, and facecap eval blendshapes: personalized
+// blendshapes from one neutral scan (paper 001 Sec. 4) and their comparison with the template
+// and example-based rigging (paper 001 Table 2).
+//
+// bsgen.h5: /template (rig.h5 layout: S_0 and the template shapes S_i), /model/parameters
+// (the networks' parameters, attributes: image_size, channels, residual_blocks, input_scale,
+// expression_scale), /checkpoint/state while training (parameters, Adam moments, steps).
+// baselines.h5: /baselines/template/deltas and /baselines/example_based/deltas [P, N, V, 3].
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <numeric>
+
+#include "assets/bounded_least_squares.h"
+#include "assets/deformation_transfer.h"
+#include "assets/example_based_rigging.h"
+#include "assets/geometry_image.h"
+#include "assets/template_shapes.h"
+#include "io/mesh_io.h"
+#include "io/rig_io.h"
+#include "nn/blendshape_generator.h"
+#include "stages/cli.h"
+#include "stages/frame_loop.h"
+#include "stages/registry.h"
+#include "stages/resumable.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/parallel_for.h"
+#include "util/random.h"
+#include "util/signals.h"
+
+namespace facecap::stages {
+namespace {
+
+constexpr int kLargeMotionShapes = 14;  // paper 001 Sec. 4.1: 14 extreme blendshapes
+
+// The scan database in memory.
+struct ScanData {
+  rig::Rig topology;                   // the template rig (S_0, topology, UVs)
+  assets::LinearShapes tmpl;           // S_0 and S_i
+  Eigen::MatrixXf alpha;               // K x N FACS weights
+  std::vector<Eigen::VectorXf> neutral;      // per person, 3V
+  std::vector<Eigen::MatrixXf> expressions;  // per person, 3V x K
+  std::vector<Eigen::MatrixXf> truth;        // per person, 3V x N (synthetic only)
+  std::vector<int> split;                    // 0 train, 1 held out
+  int NumPeople() const { return static_cast<int>(neutral.size()); }
+};
+
+ScanData ReadScans(const std::string& path, bool with_truth) {
+  ScanData d;
+  io::H5File f = io::H5File::OpenRead(path);
+  d.topology = io::ReadRig(f, "/template");
+  d.tmpl = assets::LinearizeRig(d.topology);
+  d.alpha = f.ReadMatrix<float>("/scans/facs/weights", -1, d.tmpl.NumShapes());
+  const int V = d.tmpl.NumVertices(), K = static_cast<int>(d.alpha.rows()), N = d.tmpl.NumShapes();
+  d.split = f.ReadVector<int32_t>("/scans/people/split");
+  const int P = static_cast<int>(d.split.size());
+  with_truth = with_truth && f.Exists("/scans/truth/deltas");
+  for (int j = 0; j < P; ++j) {
+    Eigen::VectorXf n(3 * V);
+    f.ReadFrames<float>("/scans/people/neutral", j, 1, n.data());
+    d.neutral.push_back(n);
+    Eigen::MatrixXf e(3 * V, K);
+    f.ReadFrames<float>("/scans/people/expressions", j, 1, e.data());
+    d.expressions.push_back(e);
+    if (with_truth) {
+      Eigen::MatrixXf t(3 * V, N);
+      f.ReadFrames<float>("/scans/truth/deltas", j, 1, t.data());
+      d.truth.push_back(t);
+    }
+  }
+  return d;
+}
+
+// Everything the networks need that follows from the template and the image size.
+struct NetSetup {
+  std::unique_ptr<assets::GeometryImageLayout> layout;
+  std::shared_ptr<nn::BlendshapeNetGeometry> geometry;
+  std::vector<float> template_image;   // HWC image of S_0
+};
+
+NetSetup MakeNetSetup(const rig::Rig& topology, const assets::LinearShapes& tmpl, int image_size) {
+  NetSetup s;
+  const std::vector<int> chart = assets::ChartVertices(topology, assets::MovingVertices(tmpl));
+  assets::GeometryImageOptions go;
+  go.size = image_size;
+  s.layout = std::make_unique<assets::GeometryImageLayout>(topology, chart, go);
+  auto g = std::make_shared<nn::BlendshapeNetGeometry>();
+  const int N = tmpl.NumShapes(), A = static_cast<int>(chart.size()), H = image_size;
+  g->image_size = H;
+  g->num_shapes = N;
+  g->num_chart_vertices = A;
+  g->template_deltas.resize(static_cast<size_t>(N) * A * 3);
+  g->reg_weights.resize(static_cast<size_t>(N) * A);
+  std::vector<double> total(N, 0.0);
+  for (int i = 0; i < N; ++i) {
+    float largest = 0.f;
+    for (int k = 0; k < A; ++k) {
+      const Eigen::Vector3f d = tmpl.deltas.block<3, 1>(3 * chart[k], i);
+      for (int c = 0; c < 3; ++c) g->template_deltas[(static_cast<size_t>(i) * A + k) * 3 + c] = d[c];
+      total[i] += d.norm();
+      largest = std::max(largest, d.norm());
+    }
+    // m_i(x) (eq. 6): lambda_l / ||S_i(x)|| on moving vertices (>= 1% of the largest motion),
+    // normalized to at most 1; 4 on the fixed vertices.
+    const float moving = 0.01f * largest;
+    for (int k = 0; k < A; ++k) {
+      const float n = tmpl.deltas.block<3, 1>(3 * chart[k], i).norm();
+      g->reg_weights[static_cast<size_t>(i) * A + k] = n > moving ? moving / n : 4.f;
+    }
+  }
+  // g_i (eq. 5): lambda_g / sum_x ||S_i(x)||, lambda_g making the largest g_i 1.
+  const double lambda_g = *std::min_element(total.begin(), total.end());
+  for (int i = 0; i < N; ++i) {
+    const float gi = total[i] > 0 ? static_cast<float>(lambda_g / total[i]) : 1.f;
+    for (int k = 0; k < A; ++k) g->reg_weights[static_cast<size_t>(i) * A + k] *= gi;
+  }
+  std::vector<int> order(N);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return total[a] > total[b]; });
+  g->large_motion_shapes.assign(order.begin(), order.begin() + std::min(N, kLargeMotionShapes));
+  for (size_t k = 0; k < chart.size(); ++k) {
+    for (int j = 0; j < 4; ++j) {
+      g->sample_pixels.push_back(s.layout->sample_pixels()[k][j]);
+      g->sample_weights.push_back(s.layout->sample_weights()[k][j]);
+    }
+  }
+  // Static channels: the template's geometry image (normalized per channel) and coverage.
+  s.template_image = s.layout->Render(tmpl.neutral);
+  g->num_static_channels = 4;
+  g->static_channels.resize(4 * static_cast<size_t>(H) * H);
+  for (int c = 0; c < 3; ++c) {
+    double mean = 0, sq = 0;
+    for (int p = 0; p < H * H; ++p) mean += s.template_image[3 * p + c];
+    mean /= H * H;
+    for (int p = 0; p < H * H; ++p) sq += std::pow(s.template_image[3 * p + c] - mean, 2);
+    const double sd = std::sqrt(sq / (H * H)) + 1e-6;
+    for (int p = 0; p < H * H; ++p) {
+      g->static_channels[c * H * H + p] = static_cast<float>((s.template_image[3 * p + c] - mean) / sd);
+    }
+  }
+  for (int p = 0; p < H * H; ++p) g->static_channels[3 * H * H + p] = s.layout->coverage()[p];
+  s.geometry = g;
+  return s;
+}
+
+// Channels-first image of (mesh - reference) / scale; mesh as a 3V column.
+std::vector<float> DisplacementImage(const NetSetup& s, const Eigen::Ref<const Eigen::VectorXf>& mesh,
+                                     const std::vector<float>& reference, float scale) {
+  const std::vector<float> image = s.layout->RenderColumn(mesh);
+  const int P = s.layout->NumPixels();
+  std::vector<float> out(3 * static_cast<size_t>(P));
+  for (int p = 0; p < P; ++p) {
+    for (int c = 0; c < 3; ++c) out[c * P + p] = (image[3 * p + c] - reference[3 * p + c]) / scale;
+  }
+  return out;
+}
+
+std::vector<float> ChartValues(const std::vector<int>& chart, const Eigen::Ref<const Eigen::VectorXf>& column) {
+  std::vector<float> out(3 * chart.size());
+  for (size_t k = 0; k < chart.size(); ++k) {
+    for (int c = 0; c < 3; ++c) out[3 * k + c] = column[3 * chart[k] + c];
+  }
+  return out;
+}
+
+// Personal shapes S_i^j = S_i + Delta S_i (eq. 3) on the chart vertices, template elsewhere.
+Eigen::MatrixXf ShapesFromOffsets(const assets::LinearShapes& tmpl, const std::vector<int>& chart,
+                                  const std::vector<float>& offsets) {
+  Eigen::MatrixXf shapes = tmpl.deltas;
+  const int N = tmpl.NumShapes(), A = static_cast<int>(chart.size());
+  for (int i = 0; i < N; ++i) {
+    for (int k = 0; k < A; ++k) {
+      for (int c = 0; c < 3; ++c) shapes(3 * chart[k] + c, i) += offsets[(static_cast<size_t>(i) * A + k) * 3 + c];
+    }
+  }
+  return shapes;
+}
+
+// ---------------------------------------------------------------------------------------------
+// [blendshapes.train]
+struct BlendshapesTrainOptions {
+  std::string scans = "scans.h5";     // scan database
+  std::string out = "bsgen.h5";       // trained model
+  int image_size = 64;                // geometry image size (pixels, multiple of 4)
+  int estimation_epochs = 60;         // passes over the training people, Estimation Stage
+  int tuning_epochs = 30;             // passes over the training people, Tuning Stage
+  int batch = 8;                      // people per step, all ranks together
+  int checkpoint_every = 50;          // steps between checkpoints
+  int threads = 0;                    // tensor threads per rank (0: the cores divided among ranks)
+  int seed = 1;                       // batch order seed
+  nn::BlendshapeNetOptions net;       // networks and losses
+
+  template <class V>
+  void Visit(V&& v) {
+    v("scans", scans, "scan database (HDF5, from scans synth or scans import)");
+    v("out", out, "trained model (HDF5)");
+    v("image_size", image_size, "geometry image size in pixels (a multiple of 4)");
+    v("estimation_epochs", estimation_epochs, "passes over the training people in the Estimation Stage");
+    v("tuning_epochs", tuning_epochs, "passes over the training people in the Tuning Stage");
+    v("batch", batch, "people per optimizer step, all ranks together");
+    v("checkpoint_every", checkpoint_every, "optimizer steps between checkpoints");
+    v("threads", threads, "tensor threads per rank (0: the cores divided among the node's ranks)");
+    v("seed", seed, "batch order seed");
+    net.Visit(v);
+  }
+  bool Check(std::string* why) const {
+    if (scans.empty() || out.empty()) { *why = "scans and out must name files"; return false; }
+    if (image_size < 16 || image_size > 256 || image_size % 4 != 0) { *why = "image_size must be a multiple of 4 in [16, 256]"; return false; }
+    if (estimation_epochs < 0 || tuning_epochs < 0) { *why = "epochs must be >= 0"; return false; }
+    if (batch < 1) { *why = "batch must be >= 1"; return false; }
+    if (checkpoint_every < 1) { *why = "checkpoint_every must be >= 1"; return false; }
+    if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    return net.Check(why);
+  }
+};
+
+void MaybeInjectFault(const dist::Comm& comm, int64_t steps_done) {
+  // FACECAP_FAULT_AFTER_STEPS=k: rank 0 sends itself SIGTERM (SIGKILL with
+  // FACECAP_FAULT_SIGNAL=KILL) once step k is done; for the restart tests.
+  static const char* after = std::getenv("FACECAP_FAULT_AFTER_STEPS");
+  if (!after || !comm.IsMainRank() || steps_done != std::atoll(after)) return;
+  const char* kind = std::getenv("FACECAP_FAULT_SIGNAL");
+  std::raise(kind && std::string(kind) == "KILL" ? SIGKILL : SIGTERM);
+}
+
+float RmsOverChart(const std::vector<int>& chart, const std::vector<Eigen::VectorXf>& meshes,
+                   const Eigen::VectorXf& reference) {
+  double sum = 0;
+  int64_t count = 0;
+  for (const auto& m : meshes) {
+    for (int v : chart) { sum += (m.segment<3>(3 * v) - reference.segment<3>(3 * v)).squaredNorm(); count += 3; }
+  }
+  return count ? static_cast<float>(std::sqrt(sum / count)) + 1e-6f : 1.f;
+}
+
+void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<BlendshapesTrainOptions>(flags, &ctx, &resolved);
+  const dist::Comm& comm = ctx.comm;
+  ScanData data;
+  dist::CoordinateExceptions(comm, [&] { data = ReadScans(o.scans, false); });
+  nn::SetTensorThreads(ThreadsPerRank(o.threads));
+  const NetSetup setup = MakeNetSetup(data.topology, data.tmpl, o.image_size);
+  const std::vector<int>& chart = setup.layout->chart_vertices();
+  std::vector<int> train;
+  for (int j = 0; j < data.NumPeople(); ++j) if (data.split[j] == 0) train.push_back(j);
+  const Eigen::VectorXf template_column = Eigen::Map<const Eigen::VectorXf>(data.tmpl.neutral.data(), data.tmpl.neutral.size());
+  std::vector<Eigen::VectorXf> train_neutrals, train_expressions;
+  for (int j : train) {
+    train_neutrals.push_back(data.neutral[j]);
+    for (int k = 0; k < data.alpha.rows(); ++k) train_expressions.push_back(data.expressions[j].col(k) - data.neutral[j] + template_column);
+  }
+  const float input_scale = RmsOverChart(chart, train_neutrals, template_column);
+  const float expression_scale = RmsOverChart(chart, train_expressions, template_column);
+  // Training people as the networks see them.
+  const int K = static_cast<int>(data.alpha.rows()), N = data.tmpl.NumShapes();
+  std::vector<nn::BlendshapePerson> people(train.size());
+  const std::vector<float> zero_image(setup.template_image.size(), 0.f);
+  ParallelFor(0, static_cast<int>(train.size()), ThreadsPerRank(o.threads), [&](int t) {
+    const int j = train[t];
+    nn::BlendshapePerson& p = people[t];
+    p.num_expressions = K;
+    p.neutral_image = DisplacementImage(setup, data.neutral[j], setup.template_image, input_scale);
+    p.neutral = ChartValues(chart, data.neutral[j]);
+    const std::vector<float> neutral_image_raw = setup.layout->RenderColumn(data.neutral[j]);
+    for (int k = 0; k < K; ++k) {
+      const auto e = ChartValues(chart, data.expressions[j].col(k));
+      p.expressions.insert(p.expressions.end(), e.begin(), e.end());
+      const auto img = DisplacementImage(setup, data.expressions[j].col(k), neutral_image_raw, expression_scale);
+      p.expression_images.insert(p.expression_images.end(), img.begin(), img.end());
+    }
+    Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> a = data.alpha;
+    p.nominal_weights.assign(a.data(), a.data() + a.size());
+  });
+  nn::BlendshapeGenerator model(o.net, setup.geometry);
+  const int T = static_cast<int>(train.size());
+  const int steps_per_epoch = (T + o.batch - 1) / o.batch;
+  const int64_t estimation_steps = static_cast<int64_t>(o.estimation_epochs) * steps_per_epoch;
+  const int64_t total_steps = estimation_steps + static_cast<int64_t>(o.tuning_epochs) * steps_per_epoch;
+
+  // Rank 0 owns the output; a checkpoint in its .partial continues training.
+  ResumableOutput output;
+  int up_to_date = 0;
+  int64_t start_step = 0;
+  std::vector<float> state_vector;
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "blendshapes train", resolved));
+    up_to_date = output.up_to_date ? 1 : 0;
+    if (!up_to_date && output.resumed && output.file.Exists("/checkpoint/state")) {
+      state_vector = output.file.ReadVector<float>("/checkpoint/state", 3 * model.NumParameters() + 2);
+      start_step = output.file.GetIntAttribute("/checkpoint/state", "step");
+      FC_INFO("blendshapes train: continuing {} from step {} of {}", io::H5File::PartialPath(o.out), start_step, total_steps);
+    }
+  });
+  comm.Broadcast(&up_to_date, sizeof(up_to_date));
+  if (up_to_date) {
+    if (comm.IsMainRank()) FC_INFO("blendshapes train: {} is up to date", o.out);
+    return;
+  }
+  comm.Broadcast(&start_step, sizeof(start_step));
+  comm.Broadcast(&state_vector);
+  if (!state_vector.empty()) model.SetState(state_vector);
+  auto write_checkpoint = [&](int64_t step) {
+    dist::CoordinateExceptions(comm, [&] {
+      if (!comm.IsMainRank()) return;
+      output.file.WriteVector<float>("/checkpoint/state", model.State());
+      output.file.SetAttribute("/checkpoint/state", "step", static_cast<int64_t>(step));
+      output.file.Flush();
+    });
+  };
+  if (comm.IsMainRank()) {
+    FC_INFO("blendshapes train: {} training people, {} parameters, {} steps ({} estimation), batch {} on {} ranks, "
+            "geometry images {}x{}, {} chart vertices", T, model.NumParameters(), total_steps, estimation_steps,
+            o.batch, comm.size(), o.image_size, o.image_size, chart.size());
+  }
+  const auto started = std::chrono::steady_clock::now();
+  double loss_sum = 0, rec_sum = 0;
+  for (int64_t step = start_step; step < total_steps; ++step) {
+    const nn::TrainingStage stage = step < estimation_steps ? nn::TrainingStage::kEstimation : nn::TrainingStage::kTuning;
+    const int64_t stage_step = step < estimation_steps ? step : step - estimation_steps;
+    const int64_t epoch = stage_step / steps_per_epoch + (stage == nn::TrainingStage::kTuning ? 100000 : 0);
+    const int in_epoch = static_cast<int>(stage_step % steps_per_epoch);
+    // The epoch's permutation of the training people (the same on every rank).
+    std::vector<int> order(T);
+    std::iota(order.begin(), order.end(), 0);
+    Rng rng(static_cast<uint64_t>(o.seed), static_cast<uint64_t>(epoch));
+    for (int i = T - 1; i > 0; --i) std::swap(order[i], order[static_cast<int>(rng.UniformInt(i + 1))]);
+    const int begin = in_epoch * o.batch, end = std::min(T, begin + o.batch);
+    std::vector<const nn::BlendshapePerson*> mine;
+    for (int b = begin + comm.rank(); b < end; b += comm.size()) mine.push_back(&people[order[b]]);
+    double rec = 0;
+    double sums[2] = {model.Backward(mine, stage, 1.f / static_cast<float>(end - begin), &rec), rec};
+    comm.SumReduce(model.GradientBuffer(), model.NumParameters());
+    comm.SumReduce(sums, 2);
+    model.OptimizerStep(stage);
+    loss_sum += sums[0];
+    rec_sum += sums[1] / (end - begin);
+    const int64_t done = step + 1;
+    if (comm.IsMainRank() && (done % steps_per_epoch == 0) && ((done / steps_per_epoch) % 10 == 0 || done == total_steps)) {
+      FC_INFO("blendshapes train: step {}/{} ({}), loss {:.5f}, L_rec {:.4f} mm", done, total_steps,
+              stage == nn::TrainingStage::kEstimation ? "estimation" : "tuning", loss_sum / steps_per_epoch,
+              10.0 * rec_sum / steps_per_epoch);
+    }
+    if (done % steps_per_epoch == 0) loss_sum = rec_sum = 0;
+    MaybeInjectFault(comm, done);
+    const bool stop = comm.AnyTrue(StopRequested());
+    if (stop || done % o.checkpoint_every == 0) write_checkpoint(done);
+    if (stop) throw InterruptedError("blendshapes train: stopped after step " + std::to_string(done) + "; checkpoint written, rerun to continue");
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  // Every rank must hold bitwise the same parameters (same init, same summed gradients).
+  const std::vector<float> parameters = model.Parameters();
+  uint64_t hash = 1469598103934665603ull;  // FNV-1a over the parameter bytes
+  for (const uint8_t* b = reinterpret_cast<const uint8_t*>(parameters.data()),
+                    *e = b + parameters.size() * sizeof(float); b != e; ++b) {
+    hash = (hash ^ *b) * 1099511628211ull;
+  }
+  std::vector<uint8_t> mine(sizeof(hash));
+  std::memcpy(mine.data(), &hash, sizeof(hash));
+  for (const auto& other : comm.AllGather(mine)) {
+    if (other != mine) throw ParallelConsistencyError("blendshapes train: ranks hold different parameters");
+  }
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    io::H5File& f = output.file;
+    FC_INFO("blendshapes train: parameters identical on all {} ranks (hash {:016x})", comm.size(), hash);
+    f.SetAttribute("/", "parameter_hash", std::to_string(hash));
+    io::WriteRig(data.topology, &f, "/template");
+    f.WriteVector<float>("/model/parameters", model.Parameters());
+    f.SetAttribute("/model/parameters", "image_size", static_cast<int64_t>(o.image_size));
+    f.SetAttribute("/model/parameters", "channels", static_cast<int64_t>(o.net.channels));
+    f.SetAttribute("/model/parameters", "residual_blocks", static_cast<int64_t>(o.net.residual_blocks));
+    f.SetAttribute("/model/parameters", "input_scale", static_cast<double>(input_scale));
+    f.SetAttribute("/model/parameters", "expression_scale", static_cast<double>(expression_scale));
+    f.SetAttribute("/model/parameters", "train_seconds", seconds);
+    f.SetAttribute("/model/parameters", "train_steps", static_cast<int64_t>(total_steps - start_step));
+    f.Commit();
+    FC_INFO("blendshapes train: {} steps in {:.1f} s ({:.3f} s per step) on {} ranks -> {}", total_steps - start_step,
+            seconds, seconds / std::max<int64_t>(1, total_steps - start_step), comm.size(), o.out);
+  });
+}
+
+// A trained model loaded for inference.
+struct LoadedModel {
+  rig::Rig topology;
+  assets::LinearShapes tmpl;
+  NetSetup setup;
+  std::unique_ptr<nn::BlendshapeGenerator> model;
+  float input_scale = 1.f;
+
+  // The personalized shapes (3V x N) for one neutral (3V).
+  Eigen::MatrixXf Personalize(const Eigen::VectorXf& neutral) const {
+    const auto image = DisplacementImage(setup, neutral, setup.template_image, input_scale);
+    return ShapesFromOffsets(tmpl, setup.layout->chart_vertices(), model->PredictOffsets(image, true));
+  }
+};
+
+LoadedModel LoadModel(const std::string& path) {
+  LoadedModel m;
+  io::H5File f = io::H5File::OpenRead(path);
+  m.topology = io::ReadRig(f, "/template");
+  m.tmpl = assets::LinearizeRig(m.topology);
+  const int size = static_cast<int>(f.GetIntAttribute("/model/parameters", "image_size"));
+  nn::BlendshapeNetOptions no;
+  no.channels = static_cast<int>(f.GetIntAttribute("/model/parameters", "channels"));
+  no.residual_blocks = static_cast<int>(f.GetIntAttribute("/model/parameters", "residual_blocks"));
+  m.input_scale = static_cast<float>(f.GetDoubleAttribute("/model/parameters", "input_scale"));
+  m.setup = MakeNetSetup(m.topology, m.tmpl, size);
+  m.model = std::make_unique<nn::BlendshapeGenerator>(no, m.setup.geometry);
+  m.model->SetParameters(f.ReadVector<float>("/model/parameters", m.model->NumParameters()));
+  return m;
+}
+
+// ---------------------------------------------------------------------------------------------
+// [blendshapes.baselines]
+struct BlendshapesBaselinesOptions {
+  std::string scans = "scans.h5";       // scan database
+  std::string out = "baselines.h5";     // template (deformation transfer) and example-based shapes
+  int threads = 0;                      // threads per rank (0: the cores divided among ranks)
+  assets::ExampleBasedOptions example;  // example-based rigging
+
+  template <class V>
+  void Visit(V&& v) {
+    v("scans", scans, "scan database (HDF5)");
+    v("out", out, "output (HDF5): every person's template and example-based shapes");
+    v("threads", threads, "threads per rank (0: the cores divided among the node's ranks)");
+    v("iterations", example.iterations, "example-based rigging: shape / weight alternations");
+    v("shape_regularization", example.shape_regularization, "example-based rigging: beta, pull towards the transferred template");
+    v("kappa", example.kappa, "example-based rigging: kappa of the per-vertex regularization weights");
+    v("theta", example.theta, "example-based rigging: theta of the per-vertex regularization weights");
+    v("weight_regularization", example.weight_regularization, "example-based rigging: gamma (cm^2), pull of the weights towards the FACS table");
+  }
+  bool Check(std::string* why) const {
+    if (scans.empty() || out.empty()) { *why = "scans and out must name files"; return false; }
+    if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    return example.Check(why);
+  }
+};
+
+void RunBlendshapesBaselines(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  auto o = ResolveStageOptions<BlendshapesBaselinesOptions>(flags, &ctx, &resolved);
+  const dist::Comm& comm = ctx.comm;
+  ResumableOutput output;
+  int up_to_date = 0;
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "blendshapes baselines", resolved));
+    up_to_date = output.up_to_date ? 1 : 0;
+  });
+  comm.Broadcast(&up_to_date, sizeof(up_to_date));
+  if (up_to_date) {
+    if (comm.IsMainRank()) FC_INFO("blendshapes baselines: {} is up to date", o.out);
+    return;
+  }
+  ScanData data;
+  dist::CoordinateExceptions(comm, [&] { data = ReadScans(o.scans, false); });
+  const std::vector<int> moving = assets::MovingVertices(data.tmpl);
+  const int P = data.NumPeople(), V = data.tmpl.NumVertices(), N = data.tmpl.NumShapes();
+  const dist::Range mine = dist::BlockRange(P, comm.rank(), comm.size());
+  const int count = static_cast<int>(mine.end - mine.begin);
+  std::vector<Eigen::MatrixXf> transferred(count), example(count);
+  o.example.threads = 1;
+  const auto started = std::chrono::steady_clock::now();
+  ParallelFor(0, count, ThreadsPerRank(o.threads), [&](int k) {
+    const int j = static_cast<int>(mine.begin) + k;
+    const rig::Vertices neutral = Eigen::Map<const rig::Vertices>(data.neutral[j].data(), V, 3);
+    const assets::DeformationTransfer transfer(data.tmpl.neutral, neutral, data.topology.triangles);
+    transferred[k] = transfer.TransferDeltas(data.tmpl.deltas);
+    example[k] = assets::FitExampleBasedRig(data.neutral[j], data.expressions[j], data.alpha, transferred[k],
+                                            data.tmpl.deltas, moving, o.example).deltas;
+  });
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  std::vector<uint8_t> bytes;
+  for (int k = 0; k < count; ++k) {
+    for (const Eigen::MatrixXf* m : {&transferred[k], &example[k]}) {
+      const uint8_t* b = reinterpret_cast<const uint8_t*>(m->data());
+      bytes.insert(bytes.end(), b, b + m->size() * sizeof(float));
+    }
+  }
+  const auto gathered = comm.Gather(bytes);
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    io::H5File& f = output.file;
+    f.CreateFrames<float>("/baselines/template/deltas", {N, V, 3}, P, 1);
+    f.CreateFrames<float>("/baselines/example_based/deltas", {N, V, 3}, P, 1);
+    f.SetAttribute("/baselines/template/deltas", "method", std::string("template shapes moved onto the neutral by deformation transfer"));
+    f.SetAttribute("/baselines/example_based/deltas", "method", std::string("example-based facial rigging on the person's scans"));
+    int person = 0;
+    const size_t per = sizeof(float) * 3 * V * N;
+    for (const auto& chunk : gathered) {
+      for (size_t at = 0; at + 2 * per <= chunk.size(); at += 2 * per, ++person) {
+        f.WriteFrames<float>("/baselines/template/deltas", person, 1, reinterpret_cast<const float*>(chunk.data() + at));
+        f.WriteFrames<float>("/baselines/example_based/deltas", person, 1, reinterpret_cast<const float*>(chunk.data() + at + per));
+      }
+    }
+    f.Commit();
+    FC_INFO("blendshapes baselines: {} people in {:.1f} s on rank 0 -> {}", P, seconds, o.out);
+  });
+}
+
+// ---------------------------------------------------------------------------------------------
+// [blendshapes.infer]
+struct BlendshapesInferOptions {
+  std::string model = "bsgen.h5";     // trained model
+  std::string neutral = "neutral.obj";  // the person's neutral mesh (template topology, cm)
+  std::string out = "rig.h5";         // personalized rig
+  int threads = 1;                    // tensor threads
+
+  template <class V>
+  void Visit(V&& v) {
+    v("model", model, "trained model (HDF5, from blendshapes train)");
+    v("neutral", neutral, "the person's neutral mesh: OBJ with the template's topology (cm)");
+    v("out", out, "personalized rig (HDF5, rig.h5 layout)");
+    v("threads", threads, "tensor threads");
+  }
+  bool Check(std::string* why) const {
+    if (model.empty() || neutral.empty() || out.empty()) { *why = "model, neutral and out must name files"; return false; }
+    if (threads < 1) { *why = "threads must be >= 1"; return false; }
+    return true;
+  }
+};
+
+void RunBlendshapesInfer(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<BlendshapesInferOptions>(flags, &ctx, &resolved);
+  dist::CoordinateExceptions(ctx.comm, [&] {
+    if (!ctx.comm.IsMainRank()) return;
+    nn::SetTensorThreads(o.threads);
+    const LoadedModel m = LoadModel(o.model);
+    const io::Mesh mesh = io::ReadMeshObj(o.neutral);
+    if (mesh.vertices.rows() != m.tmpl.NumVertices()) {
+      throw FileIOError(o.neutral + ": " + std::to_string(mesh.vertices.rows()) + " vertices, the model's template has " +
+                        std::to_string(m.tmpl.NumVertices()));
+    }
+    const Eigen::VectorXf neutral = Eigen::Map<const Eigen::VectorXf>(mesh.vertices.data(), mesh.vertices.size());
+    const auto started = std::chrono::steady_clock::now();
+    assets::LinearShapes personal;
+    personal.neutral = mesh.vertices;
+    personal.names = m.tmpl.names;
+    personal.deltas = m.Personalize(neutral);
+    const double ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    io::H5File f = io::H5File::CreateAtomic(o.out);
+    f.WriteProvenance(MakeProvenance(ctx, "blendshapes infer", resolved));
+    io::WriteRig(assets::RigFromLinearShapes(personal, m.topology), &f);
+    f.Commit();
+    FC_INFO("blendshapes infer: {} shapes in {:.1f} ms -> {}", personal.NumShapes(), ms, o.out);
+  });
+}
+
+// ---------------------------------------------------------------------------------------------
+// [eval.blendshapes]
+struct EvalBlendshapesOptions {
+  std::string scans = "scans.h5";          // scan database
+  std::string baselines = "baselines.h5";  // from blendshapes baselines
+  std::string model = "bsgen.h5";          // from blendshapes train
+  std::string markdown;                    // also write the markdown table here ("" : log only)
+  bool json = false;                       // print the metrics as one JSON object on stdout
+
+  template <class V>
+  void Visit(V&& v) {
+    v("scans", scans, "scan database (HDF5)");
+    v("baselines", baselines, "template and example-based shapes (HDF5, from blendshapes baselines)");
+    v("model", model, "trained model (HDF5, from blendshapes train)");
+    v("markdown", markdown, "file for the markdown table (empty: the log only)");
+    v("json", json, "print the metrics as one JSON object on stdout");
+  }
+  bool Check(std::string* why) const {
+    if (scans.empty() || baselines.empty() || model.empty()) { *why = "scans, baselines and model must name files"; return false; }
+    return true;
+  }
+};
+
+void RunEvalBlendshapes(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<EvalBlendshapesOptions>(flags, &ctx, &resolved);
+  dist::CoordinateExceptions(ctx.comm, [&] {
+    if (!ctx.comm.IsMainRank()) return;
+    nn::SetTensorThreads(1);
+    const ScanData data = ReadScans(o.scans, true);
+    const LoadedModel m = LoadModel(o.model);
+    io::H5File bf = io::H5File::OpenRead(o.baselines);
+    const std::vector<int> moving = assets::MovingVertices(data.tmpl);
+    const int P = data.NumPeople(), V = data.tmpl.NumVertices(), N = data.tmpl.NumShapes();
+    // [method][split] sums of per-scan errors (mm) and counts; shape distances to the truth.
+    const char* methods[3] = {"template", "example_based", "ours"};
+    double error[3][2] = {}, truth_distance[3][2] = {};
+    int scans_count[2] = {0, 0}, people_count[2] = {0, 0};
+    double inference_ms = 0;
+    for (int j = 0; j < P; ++j) {
+      const int s = data.split[j];
+      Eigen::MatrixXf shapes[3];
+      for (int t = 0; t < 2; ++t) {
+        shapes[t].resize(3 * V, N);
+        bf.ReadFrames<float>(t == 0 ? "/baselines/template/deltas" : "/baselines/example_based/deltas", j, 1, shapes[t].data());
+      }
+      const auto started = std::chrono::steady_clock::now();
+      shapes[2] = m.Personalize(data.neutral[j]);
+      inference_ms += 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      for (int t = 0; t < 3; ++t) {
+        const Eigen::VectorXd e = assets::ReconstructionErrors(data.neutral[j], shapes[t], data.expressions[j], moving);
+        error[t][s] += 10.0 * e.sum();
+        if (!data.truth.empty()) truth_distance[t][s] += 10.0 * assets::MeanShapeDistance(shapes[t], data.truth[j], moving);
+      }
+      scans_count[s] += static_cast<int>(data.expressions[j].cols());
+      people_count[s] += 1;
+    }
+    auto mean = [&](double sum, int n) { return n ? sum / n : 0.0; };
+    char buffer[4096];
+    std::string json = "{";
+    for (int t = 0; t < 3; ++t) {
+      std::snprintf(buffer, sizeof(buffer), "%s\"%s_train\": %.4f, \"%s_test\": %.4f", t ? ", " : "", methods[t],
+                    mean(error[t][0], scans_count[0]), methods[t], mean(error[t][1], scans_count[1]));
+      json += buffer;
+    }
+    if (!data.truth.empty()) {
+      for (int t = 0; t < 3; ++t) {
+        std::snprintf(buffer, sizeof(buffer), ", \"%s_vs_truth_train\": %.4f, \"%s_vs_truth_test\": %.4f", methods[t],
+                      mean(truth_distance[t][0], people_count[0]), methods[t], mean(truth_distance[t][1], people_count[1]));
+        json += buffer;
+      }
+    }
+    std::snprintf(buffer, sizeof(buffer), ", \"inference_ms_per_person\": %.2f, \"units\": \"mm\", \"train_people\": %d, "
+                  "\"test_people\": %d, \"train_scans\": %d, \"test_scans\": %d}",
+                  mean(inference_ms, P), people_count[0], people_count[1], scans_count[0], scans_count[1]);
+    json += buffer;
+    const char* labels[3] = {"Template blendshapes (deformation transfer)", "Example-based rigging [Li et al. 2010]", "Ours (generator + tuning)"};
+    std::string table = "| Method | Training (mm) | Testing (mm) | vs truth, testing (mm) |\n| --- | --- | --- | --- |\n";
+    for (int t = 0; t < 3; ++t) {
+      std::snprintf(buffer, sizeof(buffer), "| %s | %.4f | %.4f | %.4f |\n", labels[t], mean(error[t][0], scans_count[0]),
+                    mean(error[t][1], scans_count[1]), mean(truth_distance[t][1], people_count[1]));
+      table += buffer;
+    }
+    FC_INFO("eval blendshapes: mean per-vertex reconstruction error over {} moving vertices, weights in [0, 1] by "
+            "bounded least squares; {} training and {} held-out people\n{}", moving.size(), people_count[0], people_count[1], table);
+    if (!o.markdown.empty()) {
+      std::ofstream md(o.markdown);
+      md << table;
+      if (!md) throw OutputError(o.markdown + ": cannot write the table");
+    }
+    if (o.json) std::cout << json << std::endl;
+  });
+}
+
+}  // namespace
+
+void RegisterBlendshapes(CLI::App* app, AppState* state) {
+  CLI::App* bs = app->add_subcommand("blendshapes", "Personalized blendshapes from one neutral scan");
+  bs->require_subcommand(1);
+  AddStage<BlendshapesTrainOptions>(
+      bs, state, "train", "blendshapes.train", "blendshapes train",
+      "Train the blendshape generator (Estimation Stage, then Tuning Stage with the blending weight "
+      "predictor) on a scan database; data-parallel with gradient allreduce, resumable",
+      RunBlendshapesTrain);
+  AddStage<BlendshapesBaselinesOptions>(
+      bs, state, "baselines", "blendshapes.baselines", "blendshapes baselines",
+      "Baseline shapes for every person of a scan database: the template moved by deformation "
+      "transfer, and example-based facial rigging on the person's scans",
+      RunBlendshapesBaselines);
+  AddStage<BlendshapesInferOptions>(
+      bs, state, "infer", "blendshapes.infer", "blendshapes infer",
+      "One neutral mesh to a personalized rig.h5", RunBlendshapesInfer);
+  CLI::App* eval = nullptr;
+  try {
+    eval = app->get_subcommand("eval");
+  } catch (const CLI::OptionNotFound&) {
+    eval = app->add_subcommand("eval", "Evaluations with tables and JSON metrics");
+    eval->require_subcommand(1);
+  }
+  AddStage<EvalBlendshapesOptions>(
+      eval, state, "blendshapes", "eval.blendshapes", "eval blendshapes",
+      "Reconstruction errors of template, example-based and generated blendshapes on training and "
+      "held-out people (paper 001 Table 2), and their distance to the true personal shapes",
+      RunEvalBlendshapes);
+}
+
+}  // namespace facecap::stages

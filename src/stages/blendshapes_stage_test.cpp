@@ -1,0 +1,88 @@
+// facecap scans / blendshapes end to end on a tiny database: training on 2 and 3 ranks keeps
+// the parameters identical across ranks, a stopped training resumes to the uninterrupted
+// result, and the comparison prints its JSON and infers a rig.
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "io/hdf5.h"
+#include "io/mesh_io.h"
+#include "io/rig_io.h"
+#include "testing/testing.h"
+#include "util/errors.h"
+
+namespace facecap::stages {
+namespace {
+
+using testing::RunFacecap;
+
+class Blendshapes : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    auto r = RunFacecap("scans synth --people 5 --test-people 1 --out " + Scans());
+    ASSERT_EQ(r.code, 0) << r.output;
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static std::string Scans() { return dir_->File("scans.h5"); }
+  static std::string Train(const std::string& out) {
+    return "blendshapes train --scans " + Scans() + " --image-size 32 --channels 4 --residual-blocks 1"
+           " --estimation-epochs 2 --tuning-epochs 1 --batch 3 --threads 1 --checkpoint-every 100 --out " + out;
+  }
+  static std::vector<float> Parameters(const std::string& path) {
+    return io::H5File::OpenRead(path).ReadVector<float>("/model/parameters");
+  }
+  static testing::TempDir* dir_;
+};
+
+testing::TempDir* Blendshapes::dir_ = nullptr;
+
+TEST_F(Blendshapes, TwoAndThreeRanksKeepIdenticalParameters) {
+  for (int ranks : {2, 3}) {
+    const std::string out = dir_->File("ranks" + std::to_string(ranks) + ".h5");
+    auto r = RunFacecap(Train(out), ranks);
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("parameters identical on all " + std::to_string(ranks) + " ranks"), std::string::npos)
+        << r.output;
+  }
+}
+
+TEST_F(Blendshapes, StoppedTrainingResumesToTheUninterruptedParameters) {
+  const std::string straight = dir_->File("straight.h5"), stopped = dir_->File("stopped.h5");
+  ASSERT_EQ(RunFacecap(Train(straight)).code, 0);
+  auto stop = RunFacecap(Train(stopped), 0, "FACECAP_FAULT_AFTER_STEPS=3");
+  EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
+  EXPECT_FALSE(std::filesystem::exists(stopped));
+  auto rerun = RunFacecap(Train(stopped));
+  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  EXPECT_NE(rerun.output.find("continuing"), std::string::npos) << rerun.output;
+  EXPECT_EQ(Parameters(straight), Parameters(stopped));
+}
+
+TEST_F(Blendshapes, BaselinesEvalAndInferenceProduceTheTableAndARig) {
+  const std::string model = dir_->File("model.h5"), baselines = dir_->File("baselines.h5");
+  ASSERT_EQ(RunFacecap(Train(model)).code, 0);
+  auto b = RunFacecap("blendshapes baselines --scans " + Scans() + " --iterations 1 --out " + baselines);
+  ASSERT_EQ(b.code, 0) << b.output;
+  auto e = RunFacecap("eval blendshapes --scans " + Scans() + " --baselines " + baselines + " --model " + model + " --json");
+  ASSERT_EQ(e.code, 0) << e.output;
+  for (const char* key : {"\"template_train\"", "\"template_test\"", "\"example_based_train\"", "\"example_based_test\"",
+                          "\"ours_train\"", "\"ours_test\"", "\"ours_vs_truth_test\""}) {
+    EXPECT_NE(e.output.find(key), std::string::npos) << key << "\n" << e.output;
+  }
+  // One neutral mesh to a rig.
+  const io::H5File scans = io::H5File::OpenRead(Scans());
+  const rig::Rig tmpl = io::ReadRig(scans, "/template");
+  rig::Vertices neutral(tmpl.NumVertices(), 3);
+  scans.ReadFrames<float>("/scans/people/neutral", 4, 1, neutral.data());
+  const std::string obj = dir_->File("neutral.obj"), rig = dir_->File("rig.h5");
+  io::ExportMeshObj(neutral, tmpl.triangles, nullptr, nullptr, obj);
+  auto i = RunFacecap("blendshapes infer --model " + model + " --neutral " + obj + " --out " + rig);
+  ASSERT_EQ(i.code, 0) << i.output;
+  const rig::Rig personal = io::ReadRigFile(rig);
+  EXPECT_EQ(personal.NumShapes(), 55);
+  EXPECT_EQ(personal.neutral, neutral);
+}
+
+}  // namespace
+}  // namespace facecap::stages

@@ -1,0 +1,695 @@
+// facecap deepfake train / infer (paper 000 Sec. 4 and 4.1).
+//
+// train: data-parallel training with gradient allreduce. Rank 0's initial weights are
+// broadcast; each rank reads its own block of A and B; every step each rank draws its share of
+// the global batch from Rng(seed, step * 65536 + rank), computes its gradients (weighted by its
+// share), the gradient buffers are summed over ranks (dist::Comm::SumReduce), and every rank
+// takes the same Adam step, so the weights stay bitwise identical (checked by hash at every
+// checkpoint). A checkpoint (weights, Adam moments, step; the sampling is counter-based, so
+// (seed, step) is its whole random state) is written atomically to OUT.checkpoint every
+// checkpoint_every steps and on SIGTERM/SIGUSR1 (then exit 75); rerunning the command
+// continues from it, and a finished OUT trained for fewer steps is continued when --steps grows.
+//
+// infer: D_S(E(I)) and the codes E(I), E(D_S(E(I))) for every frame, spread across ranks and
+// resumable (frame_loop.h), then the region borders of each translation (contour/) as
+// polylines and an overlay PNG on the real frames.
+#include <algorithm>
+#include <chrono>
+#include <cinttypes>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+
+#include "contour/contours.h"
+#include "io/hdf5.h"
+#include "io/image_io.h"
+#include "nn/augment.h"
+#include "nn/deepfake.h"
+#include "nn/deepfake_io.h"
+#include "stages/cli.h"
+#include "stages/frame_loop.h"
+#include "stages/registry.h"
+#include "stages/resumable.h"
+#include "util/bytes.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/progress.h"
+#include "util/random.h"
+#include "util/signals.h"
+
+namespace facecap::stages {
+namespace {
+
+// Image datasets a frames file may hold, in the order they are looked for when no dataset is
+// named: wild clips (synth clip), ingested video (ingest), synthetic samples (synth samples).
+const char* const kImageDatasets[] = {"/frames/image", "/frames/crop", "/samples/segmentation"};
+
+// [deepfake.train]
+struct DeepfakeTrainOptions {
+  std::string a = "samples.h5";                  // domain A: synthetic segmentation renders
+  std::string a_dataset = "/samples/segmentation";  // image dataset of A [N, S, S, 3] uint8
+  std::string b = "frames.h5";                   // domain B: real frames (ingest) or a wild clip
+  std::string b_dataset = "";                    // image dataset of B ("": first found of
+                                                 // /frames/image, /frames/crop, /samples/segmentation)
+  std::string out = "deepfake.h5";               // model file
+  int steps = 2000;                              // training steps (global batches)
+  int batch = 16;                                // global batch: images of A and of B per step
+  int seed = 1;                                  // initial weights and batch sampling
+  int checkpoint_every = 200;                    // steps between checkpoints (0: only at the end)
+  int preview_every = 200;                       // steps between preview grids (0: only at the end)
+  std::string preview = "";                      // preview PNG ("": OUT with _preview.png)
+  int preview_count = 4;                         // rows of the preview grid
+  std::string device = "cpu";                    // cpu or cuda
+  int threads = 0;                               // torch threads per rank (0: cores / ranks)
+  double progress_seconds = 10;                  // interval of the progress lines
+  nn::DeepfakeNetworkOptions network;            // architecture
+  nn::DeepfakeLossOptions loss;                  // loss weights and Adam
+  nn::AugmentOptions augment;                    // augmentation
+
+  template <class V>
+  void Visit(V&& v) {
+    v("a", a, "domain A file: synthetic segmentation renders (synth samples)");
+    v("a_dataset", a_dataset, "image dataset of A, [N, S, S, 3] uint8");
+    v("b", b, "domain B file: real frames (ingest) or a wild clip (synth clip)");
+    v("b_dataset", b_dataset,
+      "image dataset of B (empty: the first of /frames/image, /frames/crop, /samples/segmentation)");
+    v("out", out, "model file (HDF5); OUT.checkpoint holds the checkpoint while training");
+    v("steps", steps, "training steps; a finished model is trained further when this grows");
+    v("batch", batch, "global batch (images of A and of B per step), shared among the ranks");
+    v("seed", seed, "seed of the initial weights and of the batch sampling");
+    v("checkpoint_every", checkpoint_every, "steps between checkpoints (0: only at the end)");
+    v("preview_every", preview_every, "steps between preview grids (0: only at the end)");
+    v("preview", preview, "preview grid PNG (empty: OUT with _preview.png)");
+    v("preview_count", preview_count, "rows of the preview grid");
+    v("device", device, "cpu, or cuda when libtorch has CUDA");
+    v("threads", threads, "torch threads per rank (0: the cores divided among the node's ranks)");
+    v("progress_seconds", progress_seconds, "seconds between progress lines");
+    network.Visit(v);
+    loss.Visit(v);
+    augment.Visit(v);
+  }
+  bool Check(std::string* why) const {
+    if (steps < 0) { *why = "steps must be >= 0"; return false; }
+    if (batch < 1) { *why = "batch must be positive"; return false; }
+    if (checkpoint_every < 0 || preview_every < 0) {
+      *why = "checkpoint_every and preview_every must be >= 0";
+      return false;
+    }
+    if (preview_count < 1 || preview_count > 64) { *why = "preview_count must be in [1, 64]"; return false; }
+    if (device != "cpu" && device != "cuda") { *why = "device must be cpu or cuda"; return false; }
+    if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    if (!(progress_seconds > 0)) { *why = "progress_seconds must be positive"; return false; }
+    return network.Check(why) && loss.Check(why) && augment.Check(why);
+  }
+};
+
+// [deepfake.infer]
+struct DeepfakeInferOptions {
+  std::string model = "deepfake.h5";      // model file (deepfake train)
+  std::string frames = "frames.h5";       // frames to translate
+  std::string dataset = "";               // image dataset ("": first found, as for train's B)
+  std::string out = "translated.h5";      // output file
+  std::string decoder = "A";              // A: D_A (the synthetic style), B: D_B
+  int batch = 16;                         // frames per rank per round (a checkpoint per round)
+  int threads = 0;                        // torch threads per rank (0: cores / ranks)
+  std::string device = "cpu";             // cpu or cuda
+  bool contours = true;                   // region borders of the translations (Sec. 4.1)
+  int contour_min_points = 3;             // shorter border runs are dropped
+  std::string overlay = "";               // PNG: frame, translation, borders on the frame
+                                          // ("": OUT with _contours.png; "none": no PNG)
+  int overlay_count = 8;                  // frames in the overlay PNG
+  int overlay_scale = 4;                  // magnification of the overlay PNG
+
+  template <class V>
+  void Visit(V&& v) {
+    v("model", model, "model file (deepfake train)");
+    v("frames", frames, "frames file to translate");
+    v("dataset", dataset,
+      "image dataset (empty: the first of /frames/image, /frames/crop, /samples/segmentation)");
+    v("out", out, "output file (HDF5)");
+    v("decoder", decoder, "A: translate to domain A with D_A (segmentation style); B: D_B");
+    v("batch", batch, "frames per rank per round; each round is a checkpoint");
+    v("threads", threads, "torch threads per rank (0: the cores divided among the node's ranks)");
+    v("device", device, "cpu, or cuda when libtorch has CUDA");
+    v("contours", contours, "extract region borders of the translations as polylines");
+    v("contour_min_points", contour_min_points, "border runs with fewer points are dropped");
+    v("overlay", overlay, "overlay PNG (empty: OUT with _contours.png; none: no PNG)");
+    v("overlay_count", overlay_count, "frames in the overlay PNG");
+    v("overlay_scale", overlay_scale, "magnification of the overlay PNG");
+  }
+  bool Check(std::string* why) const {
+    if (decoder != "A" && decoder != "B") { *why = "decoder must be A or B"; return false; }
+    if (batch < 1) { *why = "batch must be positive"; return false; }
+    if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    if (device != "cpu" && device != "cuda") { *why = "device must be cpu or cuda"; return false; }
+    if (contour_min_points < 2) { *why = "contour_min_points must be >= 2"; return false; }
+    if (overlay_count < 1 || overlay_scale < 1 || overlay_scale > 16) {
+      *why = "overlay_count must be positive and overlay_scale in [1, 16]";
+      return false;
+    }
+    return true;
+  }
+};
+
+std::string WithSuffix(const std::string& path, const std::string& suffix) {
+  std::string stem = path;
+  if (stem.size() > 3 && stem.compare(stem.size() - 3, 3, ".h5") == 0) stem.resize(stem.size() - 3);
+  return stem + suffix;
+}
+
+std::string FindImageDataset(const io::H5File& f, const std::string& requested) {
+  if (!requested.empty()) {
+    if (!f.Exists(requested)) throw FileIOError(f.path() + ": no dataset " + requested);
+    return requested;
+  }
+  for (const char* name : kImageDatasets) {
+    if (f.Exists(name)) return name;
+  }
+  throw FileIOError(f.path() + ": none of the image datasets /frames/image, /frames/crop, "
+                    "/samples/segmentation; name one with the dataset option");
+}
+
+// Frames usable for training: all, except ingest frames where no face was found.
+std::vector<int64_t> UsableFrames(const io::H5File& f, const std::string& dataset, int64_t n) {
+  std::vector<int64_t> usable;
+  std::vector<uint8_t> found;
+  if (dataset == "/frames/crop" && f.Exists("/frames/found")) found = f.ReadVector<uint8_t>("/frames/found", n);
+  for (int64_t i = 0; i < n; ++i) {
+    if (found.empty() || found[i]) usable.push_back(i);
+  }
+  return usable;
+}
+
+// One rank's block of an image dataset, in memory.
+struct ImageShard {
+  int size = 0;
+  int64_t total = 0;                  // usable frames in the whole dataset
+  std::vector<uint8_t> pixels;        // [count, size, size, 3]
+  int64_t count() const { return size ? static_cast<int64_t>(pixels.size()) / (3LL * size * size) : 0; }
+  const uint8_t* image(int64_t i) const { return pixels.data() + i * 3LL * size * size; }
+};
+
+ImageShard ReadShard(const std::string& path, const std::string& requested, const dist::Comm& comm) {
+  io::H5File f = io::H5File::OpenRead(path);
+  const std::string dataset = FindImageDataset(f, requested);
+  const io::Shape shape = f.CheckShape(dataset, {-1, -1, -1, 3});
+  if (shape[1] != shape[2]) {
+    throw FileIOError(path + ": " + dataset + " has shape " + io::ShapeToString(shape) +
+                      "; square images are expected");
+  }
+  const std::vector<int64_t> usable = UsableFrames(f, dataset, shape[0]);
+  ImageShard shard;
+  shard.size = static_cast<int>(shape[1]);
+  shard.total = static_cast<int64_t>(usable.size());
+  if (shard.total < comm.size()) {
+    throw FileIOError(path + ": " + dataset + " has " + std::to_string(shard.total) +
+                      " usable images, fewer than the " + std::to_string(comm.size()) + " ranks");
+  }
+  const dist::Range range = dist::BlockRange(shard.total, comm.rank(), comm.size());
+  const int64_t one = 3LL * shard.size * shard.size;
+  shard.pixels.resize((range.end - range.begin) * one);
+  // Contiguous runs of usable frames are read at once.
+  int64_t k = range.begin;
+  while (k < range.end) {
+    int64_t end = k + 1;
+    while (end < range.end && usable[end] == usable[end - 1] + 1) ++end;
+    f.ReadFrames<uint8_t>(dataset, usable[k], end - k, shard.pixels.data() + (k - range.begin) * one);
+    k = end;
+  }
+  return shard;
+}
+
+// Images resampled to the network's size, as uint8.
+std::vector<uint8_t> ResizedImages(const ImageShard& shard, int64_t first, int count, int size) {
+  const int64_t one = 3LL * size * size;
+  std::vector<uint8_t> out(count * one);
+  if (shard.size == size) {
+    std::copy(shard.image(first), shard.image(first) + count * one, out.begin());
+    return out;
+  }
+  std::vector<float> f(one);
+  for (int i = 0; i < count; ++i) {
+    nn::ResizeToFloat(shard.image(first + i), shard.size, size, f.data());
+    for (int64_t k = 0; k < one; ++k) out[i * one + k] = static_cast<uint8_t>(std::lround(f[k] * 255.f));
+  }
+  return out;
+}
+
+// The options that define what training computes; the others (steps, checkpoint and preview
+// cadence, threads, device, paths of side outputs) may change between a run and its
+// continuation.
+std::string TrainingIdentity(const DeepfakeTrainOptions& o) {
+  DeepfakeTrainOptions id = o;
+  const DeepfakeTrainOptions defaults;
+  id.steps = defaults.steps;
+  id.checkpoint_every = defaults.checkpoint_every;
+  id.preview_every = defaults.preview_every;
+  id.preview = defaults.preview;
+  id.preview_count = defaults.preview_count;
+  id.device = defaults.device;
+  id.threads = defaults.threads;
+  id.progress_seconds = defaults.progress_seconds;
+  id.out = defaults.out;
+  io::Config config;
+  io::StoreOptions(id, "deepfake.train", &config);
+  return io::ConfigHash(config.ToToml());
+}
+
+// Fault injection for the restart tests: FACECAP_FAULT_AFTER_STEPS=k makes rank 0 send itself
+// SIGTERM (or SIGKILL with FACECAP_FAULT_SIGNAL=KILL) once step k is done. Unset in normal use.
+void MaybeInjectFault(const dist::Comm& comm, int64_t steps_done) {
+  static const char* after = std::getenv("FACECAP_FAULT_AFTER_STEPS");
+  if (!after || !comm.IsMainRank() || steps_done != std::atoll(after)) return;
+  const char* kind = std::getenv("FACECAP_FAULT_SIGNAL");
+  std::raise(kind && std::string(kind) == "KILL" ? SIGKILL : SIGTERM);
+}
+
+std::string HexHash(uint64_t h) {
+  char text[24];
+  std::snprintf(text, sizeof(text), "%016" PRIx64, h);
+  return text;
+}
+
+// Every rank's parameter hash; ParallelConsistencyError on every rank when they differ.
+std::vector<uint64_t> CheckSameWeights(const dist::Comm& comm, nn::DeepfakeModel* model,
+                                       int64_t step) {
+  const uint64_t mine = model->ParameterHash();
+  std::vector<uint8_t> bytes(sizeof(mine));
+  std::memcpy(bytes.data(), &mine, sizeof(mine));
+  std::vector<uint64_t> hashes;
+  for (const auto& b : comm.AllGather(bytes)) {
+    uint64_t h;
+    std::memcpy(&h, b.data(), sizeof(h));
+    hashes.push_back(h);
+  }
+  for (size_t r = 1; r < hashes.size(); ++r) {
+    if (hashes[r] != hashes[0]) {
+      throw ParallelConsistencyError("deepfake train: after step " + std::to_string(step) +
+                                     " rank " + std::to_string(r) + " holds other weights (hash " +
+                                     HexHash(hashes[r]) + ") than rank 0 (" + HexHash(hashes[0]) + ")");
+    }
+  }
+  return hashes;
+}
+
+struct Regions {
+  std::vector<std::string> names;
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> colors;
+};
+
+Regions ReadRegions(const io::H5File& f) {
+  Regions r;
+  if (f.Exists("/regions/names") && f.Exists("/regions/colors")) {
+    r.names = f.ReadStrings("/regions/names");
+    r.colors = f.ReadMatrix<float>("/regions/colors", static_cast<int64_t>(r.names.size()), 3);
+  }
+  return r;
+}
+
+void WriteRegions(io::H5File* f, const Regions& r) {
+  if (r.names.empty()) return;
+  f->WriteStrings("/regions/names", r.names);
+  f->WriteMatrix("/regions/colors", r.colors);
+}
+
+// Writes the model file or the checkpoint (rank 0).
+void WriteModelFile(const std::string& path, const io::Provenance& provenance,
+                    const std::string& identity, nn::DeepfakeTrainer* trainer,
+                    const nn::TrainingState& state, const Regions& regions,
+                    const std::vector<uint64_t>& rank_hashes) {
+  io::H5File f = io::H5File::CreateAtomic(path);
+  f.WriteProvenance(provenance);
+  nn::WriteWeights(&f, &trainer->model());
+  nn::WriteTrainingState(&f, trainer, state);
+  f.SetAttribute("/training", "identity_hash", identity);
+  std::string hashes;
+  for (uint64_t h : rank_hashes) hashes += (hashes.empty() ? "" : ",") + HexHash(h);
+  f.SetAttribute("/training", "rank_weight_hashes", hashes);
+  f.SetAttribute("/weights", "hash", HexHash(rank_hashes.at(0)));
+  WriteRegions(&f, regions);
+  f.Commit();
+}
+
+void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<DeepfakeTrainOptions>(flags, &ctx, &resolved);
+  const dist::Comm& comm = ctx.comm;
+  const int size = o.network.size;
+  const int threads = ThreadsPerRank(o.threads);
+  nn::SetTorchThreads(threads);
+  const std::string identity = TrainingIdentity(o);
+  const std::string checkpoint_path = o.out + ".checkpoint";
+  const std::string preview_path = o.preview.empty() ? WithSuffix(o.out, "_preview.png") : o.preview;
+  const io::Provenance provenance = MakeProvenance(ctx, "deepfake train", resolved);
+
+  // Data: each rank its own block of A and B.
+  ImageShard shard_a, shard_b;
+  Regions regions;
+  std::unique_ptr<nn::DeepfakeModel> model;
+  std::unique_ptr<nn::DeepfakeTrainer> trainer;
+  dist::CoordinateExceptions(comm, [&] {
+    shard_a = ReadShard(o.a, o.a_dataset, comm);
+    shard_b = ReadShard(o.b, o.b_dataset, comm);
+    if (comm.IsMainRank()) regions = ReadRegions(io::H5File::OpenRead(o.a));
+    model = std::make_unique<nn::DeepfakeModel>(o.network, static_cast<uint64_t>(o.seed), o.device);
+    trainer = std::make_unique<nn::DeepfakeTrainer>(model.get(), o.loss);
+  });
+  if (comm.IsMainRank()) {
+    FC_INFO("deepfake train: A {} images {}px, B {} images {}px, network {}px, {} parameters, "
+            "{} ranks x {} threads, global batch {}",
+            shard_a.total, shard_a.size, shard_b.total, shard_b.size, size,
+            model->num_parameters(), comm.size(), threads, o.batch);
+  }
+
+  // Continue from the checkpoint, or from a finished model trained for fewer steps.
+  int64_t start_step = 0;
+  int resumed = 0, from_final_model = 0;
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    std::string source;
+    if (io::H5File::IsHdf5(checkpoint_path)) source = checkpoint_path;
+    else if (io::H5File::IsHdf5(o.out)) source = o.out;
+    if (source.empty()) return;
+    io::H5File f = io::H5File::OpenRead(source);
+    const std::string old = f.HasAttribute("/training", "identity_hash")
+                                ? f.GetStringAttribute("/training", "identity_hash") : "";
+    if (old != identity) {
+      throw InvalidInputError(source + " was trained with other data or options; rerun with the "
+                              "same options to continue it, or delete it to start over");
+    }
+    nn::ReadWeights(f, model.get());
+    start_step = nn::ReadTrainingState(f, trainer.get()).step;
+    resumed = 1;
+    from_final_model = source == o.out ? 1 : 0;
+    FC_INFO("deepfake train: continuing {} at step {}", source, start_step);
+  });
+  comm.Broadcast(&resumed, sizeof(resumed));
+  comm.Broadcast(&from_final_model, sizeof(from_final_model));
+  comm.Broadcast(&start_step, sizeof(start_step));
+  // Rank 0's weights (initial or resumed) and Adam state on every rank.
+  comm.Broadcast(model->parameters(), model->num_parameters() * static_cast<int64_t>(sizeof(float)));
+  model->ParametersWritten();
+  if (resumed) {
+    comm.Broadcast(trainer->first_moments(), trainer->num_gradients() * static_cast<int64_t>(sizeof(float)));
+    comm.Broadcast(trainer->second_moments(), trainer->num_gradients() * static_cast<int64_t>(sizeof(float)));
+    trainer->OptimizerStateWritten();
+    trainer->set_step(start_step);
+  }
+  if (from_final_model && start_step >= o.steps) {
+    if (comm.IsMainRank()) FC_INFO("deepfake train: {} is up to date ({} steps)", o.out, start_step);
+    return;
+  }
+
+  // This rank's share of the global batch.
+  const dist::Range share_range = dist::BlockRange(o.batch, comm.rank(), comm.size());
+  const int local_batch = static_cast<int>(share_range.end - share_range.begin);
+  const double share = static_cast<double>(local_batch) / o.batch;
+  const int64_t image_floats = 3LL * size * size;
+  nn::TrainingBatch batch;
+  batch.count = local_batch;
+  batch.size = size;
+  for (auto* v : {&batch.input_a, &batch.target_a, &batch.input_b, &batch.target_b}) {
+    v->resize(local_batch * image_floats);
+  }
+  const int preview_rows = static_cast<int>(std::min<int64_t>(
+      o.preview_count, std::min(shard_a.count(), shard_b.count())));
+  const std::vector<uint8_t> preview_a = ResizedImages(shard_a, 0, preview_rows, size);
+  const std::vector<uint8_t> preview_b = ResizedImages(shard_b, 0, preview_rows, size);
+  auto write_preview = [&] {
+    if (comm.IsMainRank()) {
+      io::WriteImage(preview_path, trainer->PreviewGrid(preview_a.data(), preview_b.data(), preview_rows));
+    }
+  };
+  auto checkpoint = [&](int64_t steps_done, bool final) {
+    const std::vector<uint64_t> hashes = CheckSameWeights(comm, model.get(), steps_done);
+    dist::CoordinateExceptions(comm, [&] {
+      if (!comm.IsMainRank()) return;
+      const nn::TrainingState ts{steps_done, static_cast<uint64_t>(o.seed)};
+      WriteModelFile(final ? o.out : checkpoint_path, provenance, identity, trainer.get(), ts,
+                     regions, hashes);
+      if (final) std::filesystem::remove(checkpoint_path);
+      FC_INFO("deepfake train: {} at step {}; weights identical on {} rank(s) (hash {})",
+              final ? "model written" : "checkpoint", steps_done, comm.size(), HexHash(hashes[0]));
+    });
+  };
+
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  Clock::time_point last_line = start;
+  double window[nn::DeepfakeLosses::kCount] = {};
+  int window_steps = 0;
+  for (int64_t step = start_step; step < o.steps; ++step) {
+    Rng rng(static_cast<uint64_t>(o.seed), static_cast<uint64_t>(step) * 65536u + comm.rank());
+    for (int i = 0; i < local_batch; ++i) {
+      const int64_t ia = rng.UniformInt(shard_a.count()), ib = rng.UniformInt(shard_b.count());
+      nn::AugmentPair(shard_a.image(ia), shard_a.size, size, o.augment, false, &rng,
+                      &batch.input_a[i * image_floats], &batch.target_a[i * image_floats]);
+      nn::AugmentPair(shard_b.image(ib), shard_b.size, size, o.augment, true, &rng,
+                      &batch.input_b[i * image_floats], &batch.target_b[i * image_floats]);
+    }
+    const nn::DeepfakeLosses local = trainer->Backward(batch, share);
+    comm.SumReduce(trainer->gradients(), trainer->num_gradients());
+    trainer->OptimizerStep();
+    MaybeInjectFault(comm, step + 1);
+    // The losses of the global batch and whether any rank was asked to stop, in one reduction.
+    double reduced[nn::DeepfakeLosses::kCount + 1];
+    local.ToArray(reduced);
+    reduced[nn::DeepfakeLosses::kCount] = StopRequested() ? 1.0 : 0.0;
+    comm.SumReduce(reduced, nn::DeepfakeLosses::kCount + 1);
+    for (int k = 0; k < nn::DeepfakeLosses::kCount; ++k) window[k] += reduced[k];
+    ++window_steps;
+    const bool stop = reduced[nn::DeepfakeLosses::kCount] > 0;
+    const int64_t done = step + 1;
+
+    const Clock::time_point now = Clock::now();
+    const double since_line = std::chrono::duration<double>(now - last_line).count();
+    if (comm.IsMainRank() && (since_line >= o.progress_seconds || done == o.steps || stop)) {
+      const double elapsed = std::chrono::duration<double>(now - start).count();
+      const double rate = (done - start_step) / std::max(elapsed, 1e-9);
+      for (double& w : window) w /= window_steps;
+      FC_INFO("deepfake train: step {}/{} ({:.1f}%)  recon_a {:.4f}  recon_b {:.4f}  "
+              "image_adv {:.3f}  latent_adv {:.3f}  f_image {:.3f}  f_latent {:.3f}  "
+              "{:.2f} steps/s  ETA {}",
+              done, o.steps, 100.0 * done / o.steps, window[0], window[1], window[2], window[3],
+              window[4], window[5], rate, Progress::FormatSeconds((o.steps - done) / rate));
+      std::fill(std::begin(window), std::end(window), 0.0);
+      window_steps = 0;
+      last_line = now;
+    }
+    if (o.preview_every > 0 && done % o.preview_every == 0) write_preview();
+    if (stop) {
+      checkpoint(done, false);
+      throw InterruptedError("deepfake train: stopped by signal " + std::to_string(StopSignal()) +
+                             " at step " + std::to_string(done) + "; " + checkpoint_path +
+                             " holds the checkpoint, rerun the same command to continue");
+    }
+    if (o.checkpoint_every > 0 && done % o.checkpoint_every == 0 && done < o.steps) {
+      checkpoint(done, false);
+    }
+  }
+  checkpoint(std::max<int64_t>(o.steps, start_step), true);
+  write_preview();
+}
+
+// --------------------------------------------------------------------------------------------
+
+void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<DeepfakeInferOptions>(flags, &ctx, &resolved);
+  const dist::Comm& comm = ctx.comm;
+  const int threads = ThreadsPerRank(o.threads);
+  nn::SetTorchThreads(threads);
+
+  std::unique_ptr<nn::DeepfakeModel> model;
+  io::H5File frames_file;
+  std::string dataset;
+  int64_t num_frames = 0;
+  int frame_size = 0;
+  Regions regions;
+  dist::CoordinateExceptions(comm, [&] {
+    io::H5File model_file = io::H5File::OpenRead(o.model);
+    model = std::make_unique<nn::DeepfakeModel>(nn::ReadNetworkOptions(model_file), 0, o.device);
+    nn::ReadWeights(model_file, model.get());
+    regions = ReadRegions(model_file);
+    frames_file = io::H5File::OpenRead(o.frames);
+    dataset = FindImageDataset(frames_file, o.dataset);
+    const io::Shape shape = frames_file.CheckShape(dataset, {-1, -1, -1, 3});
+    if (shape[1] != shape[2]) {
+      throw FileIOError(o.frames + ": " + dataset + " has shape " + io::ShapeToString(shape) +
+                        "; square images are expected");
+    }
+    num_frames = shape[0];
+    frame_size = static_cast<int>(shape[1]);
+  });
+  const int size = model->options().size;
+  const int64_t latent = model->options().LatentSize();
+  const auto decoder = o.decoder == "A" ? nn::DeepfakeModel::Decoder::kA : nn::DeepfakeModel::Decoder::kB;
+
+  ResumableOutput output;
+  std::vector<int64_t> pending;
+  int up_to_date = 0;
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "deepfake infer", resolved));
+    if (output.up_to_date) {
+      up_to_date = 1;
+      return;
+    }
+    io::H5File& f = output.file;
+    f.CreateFrames<uint8_t>("/frames/translated", {size, size, 3}, num_frames, 16);
+    f.SetAttribute("/frames/translated", "meaning",
+                   std::string(o.decoder == "A" ? "D_A(E(I)): the frame in the synthetic (segmentation) style"
+                                                : "D_B(E(I))"));
+    f.SetAttribute("/frames/translated", "layout", std::string("frame, y, x, RGB"));
+    f.CreateFrames<float>("/frames/latent", {latent}, num_frames, 16);
+    f.SetAttribute("/frames/latent", "meaning", std::string("E(I), flattened [channels, y, x]"));
+    f.CreateFrames<float>("/frames/latent_of_translation", {latent}, num_frames, 16);
+    f.SetAttribute("/frames/latent_of_translation", "meaning",
+                   std::string("E(D(E(I))) of the stored 8-bit translation (paper 000 Sec. 9)"));
+    if (!output.resumed) WriteRegions(&f, regions);
+    io::DoneMask mask(&f, num_frames);
+    pending = mask.Pending();
+    if (output.resumed) {
+      FC_INFO("deepfake infer: continuing {}: {} of {} frames already done",
+              io::H5File::PartialPath(o.out), mask.NumDone(), num_frames);
+    }
+  });
+  comm.Broadcast(&up_to_date, sizeof(up_to_date));
+  if (up_to_date) {
+    if (comm.IsMainRank()) FC_INFO("deepfake infer: {} is up to date", o.out);
+    return;
+  }
+
+  FrameLoopOptions loop;
+  loop.what = "deepfake infer";
+  loop.batch = o.batch;
+  loop.threads = 1;  // torch parallelizes inside each frame
+  const int64_t one = 3LL * frame_size * frame_size;
+  auto compute = [&](int64_t frame, int) {
+    ImageShard image;
+    image.size = frame_size;
+    image.pixels.resize(one);
+    frames_file.ReadFrames<uint8_t>(dataset, frame, 1, image.pixels.data());
+    const std::vector<uint8_t> input = ResizedImages(image, 0, 1, size);
+    std::vector<uint8_t> translated(3LL * size * size);
+    std::vector<float> code(latent), code_of_translation(latent);
+    model->Translate(input.data(), 1, decoder, translated.data(), code.data(),
+                     code_of_translation.data());
+    ByteWriter w;
+    w.PutVector(translated);
+    w.PutVector(code);
+    w.PutVector(code_of_translation);
+    return std::move(w.bytes());
+  };
+  auto commit = [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
+    io::H5File& f = output.file;
+    for (size_t k = 0; k < frames.size(); ++k) {
+      ByteReader r(results[k]);
+      const auto translated = r.GetVector<uint8_t>();
+      const auto code = r.GetVector<float>();
+      const auto code2 = r.GetVector<float>();
+      f.WriteFrames<uint8_t>("/frames/translated", frames[k], 1, translated.data());
+      f.WriteFrames<float>("/frames/latent", frames[k], 1, code.data());
+      f.WriteFrames<float>("/frames/latent_of_translation", frames[k], 1, code2.data());
+    }
+    io::DoneMask mask(&f, num_frames);
+    mask.MarkDone(frames);
+  };
+  RunFrameLoop(comm, pending, num_frames, loop, compute, commit);
+
+  // Region borders of every translation (cheap next to the network: rank 0 does them all, so
+  // the table is written once, in frame order, whatever the rank count or resumes).
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    io::H5File& f = output.file;
+    if (o.contours && regions.names.empty()) {
+      FC_WARN("deepfake infer: {} holds no /regions; no contours", o.model);
+    } else if (o.contours) {
+      contour::Palette palette;
+      palette.names = regions.names;
+      for (int r = 0; r < regions.colors.rows(); ++r) {
+        palette.colors.push_back({regions.colors(r, 0), regions.colors(r, 1), regions.colors(r, 2)});
+      }
+      contour::BorderOptions border_options;
+      border_options.min_points = o.contour_min_points;
+      std::vector<int32_t> table;  // frame, region, neighbor, closed, first point, point count
+      std::vector<float> points;
+      std::vector<uint8_t> overlay_rows;
+      const int overlay_frames = static_cast<int>(std::min<int64_t>(o.overlay_count, num_frames));
+      const int cell = size * o.overlay_scale;
+      Image8 overlay(3 * cell, std::max(1, overlay_frames) * cell, 3);
+      for (int64_t frame = 0; frame < num_frames; ++frame) {
+        Image8 translated(size, size, 3);
+        f.ReadFrames<uint8_t>("/frames/translated", frame, 1, translated.data.data());
+        const auto labels = contour::ClassifyPixels(translated, palette);
+        const auto borders = contour::ExtractBorders(labels, size, size, palette.num_labels(), border_options);
+        for (const auto& b : borders) {
+          table.insert(table.end(), {static_cast<int32_t>(frame), b.region, b.neighbor, b.closed ? 1 : 0,
+                                     static_cast<int32_t>(points.size() / 2),
+                                     static_cast<int32_t>(b.points.size())});
+          for (const auto& p : b.points) points.insert(points.end(), {p[0], p[1]});
+        }
+        if (frame < overlay_frames) {
+          ImageShard real;
+          real.size = frame_size;
+          real.pixels.resize(one);
+          frames_file.ReadFrames<uint8_t>(dataset, frame, 1, real.pixels.data());
+          Image8 real_image(size, size, 3);
+          real_image.data = ResizedImages(real, 0, 1, size);
+          // I_R, D_S(E(I_R)), and the borders of D_S(E(I_R)) on I_R (paper 000 Fig. 7).
+          const Image8 columns[3] = {contour::DrawBorders(real_image, {}, palette, o.overlay_scale),
+                                     contour::DrawBorders(translated, {}, palette, o.overlay_scale),
+                                     contour::DrawBorders(real_image, borders, palette, o.overlay_scale)};
+          for (int c = 0; c < 3; ++c) {
+            for (int y = 0; y < cell; ++y) {
+              std::memcpy(overlay.pixel(c * cell, static_cast<int>(frame) * cell + y),
+                          columns[c].pixel(0, y), static_cast<size_t>(cell) * 3);
+            }
+          }
+        }
+      }
+      const int64_t rows = static_cast<int64_t>(table.size() / 6);
+      if (f.Exists("/contours")) f.Remove("/contours");
+      f.Write<int32_t>("/contours/borders", {rows, 6}, table.data());
+      f.SetAttribute("/contours/borders", "columns",
+                     std::string("frame, region, neighbor, closed, first_point, point_count"));
+      f.SetAttribute("/contours/borders", "labels",
+                     std::string("indices into /regions/names; the background is len(names)"));
+      f.Write<float>("/contours/points", {static_cast<int64_t>(points.size() / 2), 2}, points.data());
+      f.SetAttribute("/contours/points", "units",
+                     std::string("pixels of /frames/translated (x right, y down), pixel centres at +0.5"));
+      if (o.overlay != "none") {
+        const std::string overlay_path = o.overlay.empty() ? WithSuffix(o.out, "_contours.png") : o.overlay;
+        io::WriteImage(overlay_path, overlay);
+      }
+      FC_INFO("deepfake infer: {} borders ({} points) over {} frames", rows, points.size() / 2, num_frames);
+    }
+    f.Commit();
+    FC_INFO("deepfake infer: {} frames -> {}", num_frames, o.out);
+  });
+}
+
+}  // namespace
+
+void RegisterDeepfake(CLI::App* app, AppState* state) {
+  CLI::App* deepfake = app->add_subcommand(
+      "deepfake", "The deepfake of paper 000 Sec. 4: train with gradient allreduce, translate frames");
+  deepfake->require_subcommand(1);
+  AddStage<DeepfakeTrainOptions>(
+      deepfake, state, "train", "deepfake.train", "deepfake train",
+      "Train E, D_A, D_B with the discriminators G_image and G_latent on A (synthetic renders) and "
+      "B (real frames), data-parallel across ranks with gradient allreduce; checkpoints, resumes, "
+      "progress lines with each loss, preview grid",
+      RunDeepfakeTrain);
+  AddStage<DeepfakeInferOptions>(
+      deepfake, state, "infer", "deepfake.infer", "deepfake infer",
+      "Translate frames with D(E(I)), store the codes E(I) and E(D(E(I))), and the region borders "
+      "of each translation as polylines with an overlay PNG; spread across ranks, resumable",
+      RunDeepfakeInfer);
+}
+
+}  // namespace facecap::stages

@@ -1,0 +1,188 @@
+// facecap deepfake train / infer end to end under mpirun: the same weights on every rank,
+// a stopped or killed run continued to the bitwise result of the straight run, checkpoints
+// that do not fit are refused with a clear message, and inference independent of the ranks.
+#include <algorithm>
+#include <filesystem>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "io/hdf5.h"
+#include "nn/deepfake.h"
+#include "nn/deepfake_io.h"
+#include "testing/testing.h"
+#include "util/errors.h"
+
+namespace facecap::stages {
+namespace {
+
+using testing::RunFacecap;
+
+// One torch thread per rank: bitwise-reproducible runs.
+const char kEnv[] = "OMP_NUM_THREADS=1";
+
+class DeepfakeStage : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    auto r = RunFacecap("rig demo --out " + File("rig.h5"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    for (const char* seed : {"1", "2"}) {
+      r = RunFacecap("synth samples --rig " + File("rig.h5") + " --count 24 --size 32 --seed " +
+                     seed + " --out " + File(std::string("samples") + seed + ".h5"));
+      ASSERT_EQ(r.code, 0) << r.output;
+    }
+    // Domain B: other samples through a colour transform (a stand-in for a wild clip), with
+    // the true segmentation beside them.
+    io::H5File in = io::H5File::OpenRead(File("samples2.h5"));
+    io::Shape shape;
+    std::vector<uint8_t> seg = in.Read<uint8_t>("/samples/segmentation", {}, &shape);
+    std::vector<uint8_t> image(seg.size());
+    for (size_t i = 0; i < seg.size(); i += 3) {
+      image[i] = static_cast<uint8_t>(40 + seg[i + 1] * 0.6);
+      image[i + 1] = static_cast<uint8_t>(30 + seg[i + 2] * 0.5);
+      image[i + 2] = static_cast<uint8_t>(50 + seg[i] * 0.7);
+    }
+    io::H5File out = io::H5File::CreateAtomic(File("b.h5"));
+    out.Write<uint8_t>("/frames/image", shape, image.data());
+    out.Write<uint8_t>("/frames/segmentation", shape, seg.data());
+    out.Commit();
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static std::string File(const std::string& name) { return dir_->File(name); }
+  static std::string Train(const std::string& out, int steps, int encoder_width = 8) {
+    return "deepfake train --a " + File("samples1.h5") + " --b " + File("b.h5") +
+           " --size 32 --latent-resolution 8 --latent-channels 8 --encoder-width " +
+           std::to_string(encoder_width) +
+           " --decoder-width 8 --discriminator-width 8 --batch 6 --checkpoint-every 4"
+           " --preview-every 4 --progress-seconds 0.01 --steps " + std::to_string(steps) +
+           " --out " + out;
+  }
+  static std::vector<std::string> RankHashes(const std::string& path) {
+    io::H5File f = io::H5File::OpenRead(path);
+    std::string text = f.GetStringAttribute("/training", "rank_weight_hashes");
+    std::vector<std::string> hashes;
+    size_t start = 0;
+    for (size_t comma; (comma = text.find(',', start)) != std::string::npos; start = comma + 1) {
+      hashes.push_back(text.substr(start, comma - start));
+    }
+    hashes.push_back(text.substr(start));
+    return hashes;
+  }
+  // The hash of the weights as stored, recomputed from the datasets.
+  static uint64_t StoredWeightsHash(const std::string& path) {
+    io::H5File f = io::H5File::OpenRead(path);
+    nn::DeepfakeModel model(nn::ReadNetworkOptions(f), 0);
+    nn::ReadWeights(f, &model);
+    return model.ParameterHash();
+  }
+  static std::vector<float> Dataset(const std::string& path, const std::string& name) {
+    return io::H5File::OpenRead(path).Read<float>(name, {});
+  }
+  static testing::TempDir* dir_;
+};
+
+testing::TempDir* DeepfakeStage::dir_ = nullptr;
+
+TEST_F(DeepfakeStage, EveryRankHoldsTheSameWeightsOnTwoAndThreeRanks) {
+  for (int ranks : {2, 3}) {
+    const std::string out = File("ranks" + std::to_string(ranks) + ".h5");
+    auto r = RunFacecap(Train(out, 5), ranks, kEnv);
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("weights identical on " + std::to_string(ranks) + " rank(s)"),
+              std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("steps/s"), std::string::npos) << r.output;
+    const auto hashes = RankHashes(out);
+    ASSERT_EQ(hashes.size(), static_cast<size_t>(ranks));
+    char stored[24];
+    std::snprintf(stored, sizeof(stored), "%016llx",
+                  static_cast<unsigned long long>(StoredWeightsHash(out)));
+    for (const auto& h : hashes) EXPECT_EQ(h, stored);
+    EXPECT_TRUE(std::filesystem::exists(File("ranks" + std::to_string(ranks) + "_preview.png")));
+    EXPECT_FALSE(std::filesystem::exists(out + ".checkpoint"));
+  }
+}
+
+TEST_F(DeepfakeStage, StoppedAndKilledRunsContinueToTheStraightResult) {
+  const std::string straight = File("straight.h5"), stopped = File("stopped.h5"),
+                    killed = File("killed.h5");
+  ASSERT_EQ(RunFacecap(Train(straight, 10), 2, kEnv).code, 0);
+  // SIGTERM after step 3: a checkpoint at step 3, exit 75, then a rerun continues.
+  auto stop = RunFacecap(Train(stopped, 10), 2, std::string(kEnv) + " FACECAP_FAULT_AFTER_STEPS=3");
+  EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
+  EXPECT_TRUE(std::filesystem::exists(stopped + ".checkpoint"));
+  EXPECT_FALSE(std::filesystem::exists(stopped));
+  auto rerun = RunFacecap(Train(stopped, 10), 2, kEnv);
+  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  EXPECT_NE(rerun.output.find("continuing " + stopped + ".checkpoint at step 3"), std::string::npos)
+      << rerun.output;
+  // SIGKILL after step 6: only the checkpoint of step 4 survives.
+  auto kill = RunFacecap(Train(killed, 10), 2,
+                         std::string(kEnv) + " FACECAP_FAULT_AFTER_STEPS=6 FACECAP_FAULT_SIGNAL=KILL");
+  EXPECT_NE(kill.code, 0);
+  auto rerun_killed = RunFacecap(Train(killed, 10), 2, kEnv);
+  ASSERT_EQ(rerun_killed.code, 0) << rerun_killed.output;
+  EXPECT_NE(rerun_killed.output.find("at step 4"), std::string::npos) << rerun_killed.output;
+  for (const std::string& other : {stopped, killed}) {
+    EXPECT_EQ(StoredWeightsHash(other), StoredWeightsHash(straight)) << other;
+    EXPECT_EQ(Dataset(other, "/optimizer/second_moment/decoder_a/rgb/weight"),
+              Dataset(straight, "/optimizer/second_moment/decoder_a/rgb/weight"));
+    EXPECT_EQ(io::H5File::OpenRead(other).GetIntAttribute("/training", "step"), 10);
+  }
+  // Up to date now; more steps continue the finished model.
+  auto again = RunFacecap(Train(straight, 10), 0, kEnv);
+  EXPECT_EQ(again.code, 0);
+  EXPECT_NE(again.output.find("up to date"), std::string::npos) << again.output;
+  auto longer = RunFacecap(Train(stopped, 12), 0, kEnv);
+  ASSERT_EQ(longer.code, 0) << longer.output;
+  EXPECT_NE(longer.output.find("continuing " + stopped + " at step 10"), std::string::npos);
+}
+
+TEST_F(DeepfakeStage, CheckpointsThatDoNotFitAreRefusedByName) {
+  const std::string out = File("fit.h5");
+  ASSERT_EQ(RunFacecap(Train(out, 2), 0, kEnv).code, 0);
+  // Other options than the checkpoint was trained with.
+  auto other = RunFacecap(Train(out, 4, 12), 0, kEnv);
+  EXPECT_EQ(other.code, kExitUsage) << other.output;
+  EXPECT_NE(other.output.find("trained with other data or options"), std::string::npos) << other.output;
+  // A model whose tensor has another shape than its recorded architecture.
+  {
+    io::H5File f = io::H5File::OpenReadWrite(out);
+    f.SetAttribute("/weights", "decoder_width", static_cast<int64_t>(16));
+  }
+  auto mismatch = RunFacecap("deepfake infer --model " + out + " --frames " + File("b.h5") +
+                             " --out " + File("mismatch_translated.h5"), 0, kEnv);
+  EXPECT_EQ(mismatch.code, kExitInput) << mismatch.output;
+  EXPECT_NE(mismatch.output.find("/weights/decoder_a/in/weight has shape [16, 8, 3, 3], the "
+                                 "network expects [32, 8, 3, 3]"), std::string::npos) << mismatch.output;
+  // A truncated model file.
+  std::filesystem::resize_file(out, std::filesystem::file_size(out) / 2);
+  auto truncated = RunFacecap("deepfake infer --model " + out + " --frames " + File("b.h5") +
+                              " --out " + File("truncated_translated.h5"), 0, kEnv);
+  EXPECT_EQ(truncated.code, kExitInput) << truncated.output;
+  EXPECT_NE(truncated.output.find(out), std::string::npos) << truncated.output;
+}
+
+TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
+  const std::string model = File("infer_model.h5");
+  ASSERT_EQ(RunFacecap(Train(model, 3), 0, kEnv).code, 0);
+  const std::string one = File("one.h5"), two = File("two.h5");
+  const std::string args = "deepfake infer --model " + model + " --frames " + File("b.h5") +
+                           " --batch 5 --overlay-count 3 --out ";
+  auto r1 = RunFacecap(args + one, 0, kEnv);
+  ASSERT_EQ(r1.code, 0) << r1.output;
+  auto r2 = RunFacecap(args + two, 2, kEnv);
+  ASSERT_EQ(r2.code, 0) << r2.output;
+  io::H5File f1 = io::H5File::OpenRead(one), f2 = io::H5File::OpenRead(two);
+  EXPECT_EQ(f1.DatasetShape("/frames/translated"), (io::Shape{24, 32, 32, 3}));
+  EXPECT_EQ(f1.DatasetShape("/frames/latent"), (io::Shape{24, 8 * 8 * 8}));
+  EXPECT_EQ(f1.Read<uint8_t>("/frames/translated", {}), f2.Read<uint8_t>("/frames/translated", {}));
+  EXPECT_EQ(f1.Read<float>("/frames/latent_of_translation", {}),
+            f2.Read<float>("/frames/latent_of_translation", {}));
+  EXPECT_EQ(f1.Read<int32_t>("/contours/borders", {}), f2.Read<int32_t>("/contours/borders", {}));
+  EXPECT_TRUE(std::filesystem::exists(File("one_contours.png")));
+  EXPECT_EQ(f1.ReadStrings("/regions/names").front(), "skin");
+}
+
+}  // namespace
+}  // namespace facecap::stages

@@ -1,0 +1,245 @@
+// facecap eval track: accuracy of a track.h5 against the truth of a synthetic file (samples
+// or clip): pose error, weight error per shape, landmark NME and vertex error over the
+// inter-ocular distance, and the solve time per frame. Prints one JSON object.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "io/hdf5.h"
+#include "io/rig_io.h"
+#include "render/camera.h"
+#include "render/framing.h"
+#include "rig/evaluate.h"
+#include "stages/cli.h"
+#include "stages/registry.h"
+#include "util/errors.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+namespace {
+
+// [eval.track]
+struct EvalTrackOptions {
+  std::string truth = "clip.h5";   // file with the true pose and weights of every frame
+  std::string track = "track.h5";  // output of facecap track
+  // Rig of the truth (HDF5 /rig); empty: the truth file's /rig.
+  std::string rig = "";
+  bool json = true;                // print the metrics as one JSON object (else a table)
+  std::string out = "";            // also write the JSON to this file (empty: none)
+
+  template <class V>
+  void Visit(V&& v) {
+    v("truth", truth, "file with the true pose and weights per frame (synth samples or clip)");
+    v("track", track, "track.h5 written by facecap track");
+    v("rig", rig, "rig file of the truth (empty: the truth file's /rig)");
+    v("json", json, "print one JSON object (false: a readable table)");
+    v("out", out, "also write the JSON object to this file (empty: none)");
+  }
+  bool Check(std::string* why) const {
+    if (truth.empty() || track.empty()) {
+      *why = "truth and track are required";
+      return false;
+    }
+    return true;
+  }
+};
+
+double RotationAngleDeg(const rig::RigidPose& a, const rig::RigidPose& b) {
+  const Eigen::Matrix3d r = (a.Rotation().transpose() * b.Rotation()).cast<double>();
+  return std::acos(std::clamp((r.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
+}
+
+std::string JsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.6g", v);
+  return text;
+}
+
+void RunEvalTrack(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<EvalTrackOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  std::string why;
+  if (!o.Check(&why)) throw InvalidInputError("eval track: " + why);
+
+  io::H5File truth = io::H5File::OpenRead(o.truth);
+  io::H5File track = io::H5File::OpenRead(o.track);
+  rig::Rig rig;
+  if (!o.rig.empty()) {
+    rig = io::ReadRigFile(o.rig);
+  } else if (truth.Exists("/rig/neutral")) {
+    rig = io::ReadRig(truth);
+  } else {
+    throw InvalidInputError("eval track: " + o.truth + " has no /rig; pass --rig");
+  }
+  // Truth layout: a clip (/frames) or synth samples (/samples).
+  const bool clip = truth.Exists("/frames/weights");
+  const std::string group = clip ? "/frames" : "/samples";
+  if (!truth.Exists(group + "/weights") || !truth.Exists(group + "/pose")) {
+    throw FileIOError(o.truth + ": no " + group + "/weights and " + group + "/pose");
+  }
+  const int64_t frames = track.NumFrames("/track/weights");
+  if (truth.NumFrames(group + "/weights") < frames) {
+    throw FileIOError(o.truth + " has fewer frames than " + o.track);
+  }
+  const int S = rig.NumShapes();
+  std::vector<std::string> truth_names;
+  for (const auto& s : rig.shapes) truth_names.push_back(s.name);
+  if (truth.Exists(group + "/shape_names")) truth_names = truth.ReadStrings(group + "/shape_names");
+  const std::vector<std::string> track_names = track.ReadStrings("/track/shape_names");
+  // Column of each rig shape in the truth and in the track (by name).
+  std::vector<int> truth_col(S, -1), track_col(S, -1);
+  for (int s = 0; s < S; ++s) {
+    for (size_t k = 0; k < truth_names.size(); ++k) {
+      if (truth_names[k] == rig.shapes[s].name) truth_col[s] = static_cast<int>(k);
+    }
+    for (size_t k = 0; k < track_names.size(); ++k) {
+      if (track_names[k] == rig.shapes[s].name) track_col[s] = static_cast<int>(k);
+    }
+  }
+  const auto tw = truth.ReadMatrix<float>(group + "/weights");
+  const auto tp = truth.ReadMatrix<float>(group + "/pose");
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> tt;
+  if (truth.Exists(group + "/translation")) tt = truth.ReadMatrix<float>(group + "/translation");
+  const auto sw = track.ReadMatrix<float>("/track/weights");
+  const auto sp = track.ReadMatrix<float>("/track/pose", frames, 3);
+  const auto st = track.ReadMatrix<float>("/track/translation", frames, 3);
+  const std::vector<float> sscale = track.ReadVector<float>("/track/scale");
+  const std::vector<double> seconds = track.ReadVector<double>("/track/seconds");
+  const std::vector<double> cost = track.ReadVector<double>("/track/cost");
+  const std::vector<int32_t> termination = track.ReadVector<int32_t>("/track/termination");
+  const std::vector<double> k = truth.ReadVector<double>("/camera/intrinsics", 4);
+  render::Camera camera;
+  camera.fx = static_cast<float>(k[0]);
+  camera.fy = static_cast<float>(k[1]);
+  camera.cx = static_cast<float>(k[2]);
+  camera.cy = static_cast<float>(k[3]);
+  float distance = 0.f;
+  if (truth.HasAttribute("/camera/intrinsics", "distance_cm")) {
+    distance = static_cast<float>(truth.GetDoubleAttribute("/camera/intrinsics", "distance_cm"));
+  }
+  if (tt.rows() == 0 && distance <= 0.f) {
+    throw FileIOError(o.truth + ": no " + group + "/translation and no distance_cm on /camera/intrinsics");
+  }
+
+  const rig::RigEvaluator evaluator(rig);
+  const int L = static_cast<int>(rig.landmarks.size());
+  const bool has_eyes = L == 68;
+  double pose_err = 0., weight_err = 0., nme = 0., vertex_rel = 0., translation_err = 0.;
+  std::vector<double> per_shape(S, 0.);
+  std::vector<double> pose_errors;
+  rig::Vertices truth_posed, solved_posed;
+  for (int64_t f = 0; f < frames; ++f) {
+    rig::RigidPose truth_pose;
+    if (tt.rows() > 0) {
+      truth_pose.pitch = tp(f, 0);
+      truth_pose.yaw = tp(f, 1);
+      truth_pose.roll = tp.cols() > 2 ? tp(f, 2) : 0.f;
+      truth_pose.translation = tt.row(f).transpose();
+    } else {
+      truth_pose = render::FramedPose(rig, distance, tp(f, 0), tp(f, 1),
+                                      tp.cols() > 2 ? tp(f, 2) : 0.f);
+    }
+    rig::RigidPose solved;
+    solved.pitch = sp(f, 0);
+    solved.yaw = sp(f, 1);
+    solved.roll = sp(f, 2);
+    solved.translation = st.row(f).transpose();
+    solved.scale = sscale[f];
+    Eigen::VectorXf wt = Eigen::VectorXf::Zero(S), ws = Eigen::VectorXf::Zero(S);
+    for (int s = 0; s < S; ++s) {
+      if (truth_col[s] >= 0) wt[s] = tw(f, truth_col[s]);
+      if (track_col[s] >= 0) ws[s] = sw(f, track_col[s]);
+      const double e = std::abs(wt[s] - ws[s]);
+      per_shape[s] += e;
+      weight_err += e / S;
+    }
+    const double pe = RotationAngleDeg(truth_pose, solved);
+    pose_errors.push_back(pe);
+    pose_err += pe;
+    translation_err += (truth_pose.translation - solved.translation).norm();
+    evaluator.EvaluatePosed(truth_pose, wt, &truth_posed);
+    evaluator.EvaluatePosed(solved, ws, &solved_posed);
+    if (has_eyes) {
+      const int a = rig.landmarks[36], b = rig.landmarks[45];
+      const float iod3 = (truth_posed.row(a) - truth_posed.row(b)).norm();
+      const Eigen::Vector2f pa = camera.Project(truth_posed.row(a).transpose()).head<2>();
+      const Eigen::Vector2f pb = camera.Project(truth_posed.row(b).transpose()).head<2>();
+      const float iod2 = (pa - pb).norm();
+      double lm = 0.;
+      for (int l = 0; l < L; ++l) {
+        const int v = rig.landmarks[l];
+        lm += (camera.Project(truth_posed.row(v).transpose()).head<2>() -
+               camera.Project(solved_posed.row(v).transpose()).head<2>())
+                  .norm();
+      }
+      nme += lm / L / iod2;
+      vertex_rel += (truth_posed - solved_posed).rowwise().norm().mean() / iod3;
+    }
+  }
+  const double n = static_cast<double>(std::max<int64_t>(frames, 1));
+  std::sort(pose_errors.begin(), pose_errors.end());
+  double sec = 0., cost_mean = 0.;
+  int converged = 0;
+  for (int64_t f = 0; f < frames; ++f) {
+    sec += seconds[f];
+    cost_mean += cost[f];
+    converged += termination[f] == 0;
+  }
+  std::ostringstream js;
+  js << "{\"frames\": " << frames << ", \"pose_err_deg_mean\": " << JsonNumber(pose_err / n)
+     << ", \"pose_err_deg_median\": "
+     << JsonNumber(frames ? pose_errors[pose_errors.size() / 2] : 0.)
+     << ", \"translation_err_cm_mean\": " << JsonNumber(translation_err / n)
+     << ", \"weights_mae\": " << JsonNumber(weight_err / n)
+     << ", \"landmark_nme\": " << (has_eyes ? JsonNumber(nme / n) : "null")
+     << ", \"vertex_err_rel_mean\": " << (has_eyes ? JsonNumber(vertex_rel / n) : "null")
+     << ", \"sec_per_frame\": " << JsonNumber(sec / n)
+     << ", \"cost_mean\": " << JsonNumber(cost_mean / n)
+     << ", \"converged_fraction\": " << JsonNumber(converged / n)
+     << ", \"weights_mae_per_shape\": {";
+  for (int s = 0; s < S; ++s) {
+    js << (s ? ", " : "") << "\"" << rig.shapes[s].name << "\": " << JsonNumber(per_shape[s] / n);
+  }
+  js << "}}";
+  if (o.json) {
+    std::cout << js.str() << std::endl;
+  } else {
+    std::printf("frames %lld\npose error %.3f deg (median %.3f)\nweight MAE %.4f\n"
+                "landmark NME %.4f\nvertex error / IOD %.4f\nsec per frame %.4f\n",
+                static_cast<long long>(frames), pose_err / n,
+                frames ? pose_errors[pose_errors.size() / 2] : 0., weight_err / n, nme / n,
+                vertex_rel / n, sec / n);
+  }
+  if (!o.out.empty()) {
+    std::ofstream file(o.out);
+    if (!file) throw OutputError("eval track: cannot write " + o.out);
+    file << js.str() << "\n";
+  }
+}
+
+}  // namespace
+
+void RegisterEval(CLI::App* app, AppState* state) {
+  CLI::App* eval = nullptr;
+  try {
+    eval = app->get_subcommand("eval");
+  } catch (const CLI::OptionNotFound&) {
+    eval = app->add_subcommand("eval", "Metrics of an output against synthetic truth");
+    eval->require_subcommand(1);
+  }
+  AddStage<EvalTrackOptions>(
+      eval, state, "track", "eval.track", "eval track",
+      "Tracking accuracy against the truth: pose error (deg), weight MAE (overall and per "
+      "shape), landmark NME and mean vertex error over the inter-ocular distance (outer eye "
+      "corners 36, 45), seconds per frame; one JSON object",
+      RunEvalTrack);
+}
+
+}  // namespace facecap::stages

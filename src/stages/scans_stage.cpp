@@ -1,0 +1,279 @@
+// facecap scans synth | import: the scan database (paper 001 Sec. 4, Sec. 7) in one HDF5
+// layout, synthetic with known personal shapes or imported from registered OBJ meshes.
+//
+// scans.h5:
+//   /template (rig.h5 layout)           the N template shapes S_i on the template neutral S_0
+//   /scans/shape_names [N]              /scans/facs/names [K], /scans/facs/weights [K, N] (0/1)
+//   /scans/people/neutral [P, V, 3]     /scans/people/expressions [P, K, V, 3] (cm)
+//   /scans/people/split [P] (0 train, 1 held out)
+//   /scans/truth/deltas [P, N, V, 3], /scans/truth/weights [P, K, N]   (synthetic only)
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "assets/geometry_image.h"
+#include "assets/scan_database.h"
+#include "assets/template_shapes.h"
+#include "io/mesh_io.h"
+#include "io/rig_io.h"
+#include "rig/demo_head.h"
+#include "stages/cli.h"
+#include "stages/frame_loop.h"
+#include "stages/registry.h"
+#include "stages/resumable.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/parallel_for.h"
+
+namespace facecap::stages {
+namespace {
+
+// [scans.synth]
+struct ScansSynthOptions {
+  std::string out = "scans.h5";          // output scan database
+  int people = 60;                       // number of people
+  int test_people = 12;                  // the last test_people are held out
+  int head_resolution = 60;              // demo head grid resolution (vertex count)
+  std::vector<std::string> facs = assets::DefaultFacsTable();  // FACS table name=shape+shape
+  int threads = 0;                       // threads (0: the cores divided among the node's ranks)
+  assets::ScanSynthOptions synth;        // personal shapes and capture noise
+
+  template <class V>
+  void Visit(V&& v) {
+    v("out", out, "output scan database (HDF5)");
+    v("people", people, "number of people");
+    v("test_people", test_people, "the last test_people people are held out for evaluation");
+    v("head_resolution", head_resolution, "demo head grid resolution ([60, 300]; 100 is about 9,000 vertices)");
+    v("facs", facs, "FACS table: one 'name=shapeA+shapeB' entry per expression, covering every template shape");
+    v("threads", threads, "threads (0: the cores divided among the node's ranks)");
+    synth.Visit(v);
+  }
+  bool Check(std::string* why) const {
+    if (out.empty()) { *why = "out must name a file"; return false; }
+    if (people < 2) { *why = "people must be >= 2"; return false; }
+    if (test_people < 1 || test_people >= people) { *why = "test_people must be in [1, people)"; return false; }
+    if (head_resolution < 60 || head_resolution > 300) { *why = "head_resolution must be in [60, 300]"; return false; }
+    if (facs.empty()) { *why = "the FACS table is empty"; return false; }
+    if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    return synth.Check(why);
+  }
+};
+
+// [scans.import]
+struct ScansImportOptions {
+  std::string labels = "labels.csv";  // CSV: person,expression,file,split (file relative to the CSV)
+  std::string template_rig = "template.h5";  // rig file whose shapes are the template S_i
+  std::vector<std::string> facs = assets::DefaultFacsTable();  // FACS table of the expressions
+  std::string out = "scans.h5";       // output scan database
+
+  template <class V>
+  void Visit(V&& v) {
+    v("labels", labels, "labels CSV: person,expression,file,split; expression 'neutral' is the neutral, "
+                        "split is train or test; files are OBJ meshes of the template's topology");
+    v("template_rig", template_rig, "rig file (HDF5) whose shapes are the template blendshapes");
+    v("facs", facs, "FACS table: one 'name=shapeA+shapeB' entry per expression");
+    v("out", out, "output scan database (HDF5)");
+  }
+  bool Check(std::string* why) const {
+    if (labels.empty() || template_rig.empty() || out.empty()) {
+      *why = "labels, template_rig and out must name files";
+      return false;
+    }
+    if (facs.empty()) { *why = "the FACS table is empty"; return false; }
+    return true;
+  }
+};
+
+void WriteDatabaseHeader(io::H5File* f, const assets::LinearShapes& tmpl, const rig::Rig& topology,
+                         const std::vector<assets::FacsExpression>& table, const Eigen::MatrixXf& alpha,
+                         int people) {
+  io::WriteRig(assets::RigFromLinearShapes(tmpl, topology), f, "/template");
+  f->WriteStrings("/scans/shape_names", tmpl.names);
+  std::vector<std::string> names;
+  for (const auto& e : table) names.push_back(e.name);
+  f->WriteStrings("/scans/facs/names", names);
+  f->WriteMatrix("/scans/facs/weights", alpha);
+  const int64_t V = tmpl.NumVertices(), K = alpha.rows();
+  f->CreateFrames<float>("/scans/people/neutral", {V, 3}, people, 1);
+  f->CreateFrames<float>("/scans/people/expressions", {K, V, 3}, people, 1);
+  f->SetAttribute("/scans/people/neutral", "units", std::string("cm"));
+  f->SetAttribute("/scans/people/expressions", "units", std::string("cm"));
+}
+
+void RunScansSynth(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<ScansSynthOptions>(flags, &ctx, &resolved);
+  const dist::Comm& comm = ctx.comm;
+  std::vector<assets::FacsExpression> table;
+  Eigen::MatrixXf alpha;
+  rig::Rig head;
+  assets::LinearShapes tmpl;
+  dist::CoordinateExceptions(comm, [&] {
+    rig::DemoHeadOptions ho;
+    ho.resolution = o.head_resolution;
+    head = rig::MakeDemoHead(ho);
+    tmpl = assets::MakeTemplateShapes(head);
+    table = assets::ParseFacsTable(o.facs);
+    alpha = assets::FacsWeights(table, tmpl.names, true);
+  });
+  const std::vector<int> personal = assets::ChartVertices(head, assets::MovingVertices(tmpl));
+  // Rank 0 writes; every rank synthesizes its block of people (cheap, deterministic per person).
+  ResumableOutput output;
+  int up_to_date = 0;
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "scans synth", resolved));
+    up_to_date = output.up_to_date ? 1 : 0;
+  });
+  comm.Broadcast(&up_to_date, sizeof(up_to_date));
+  if (up_to_date) {
+    if (comm.IsMainRank()) FC_INFO("scans synth: {} is up to date", o.out);
+    return;
+  }
+  const int P = o.people, V = tmpl.NumVertices(), N = tmpl.NumShapes(), K = static_cast<int>(alpha.rows());
+  const dist::Range mine = dist::BlockRange(P, comm.rank(), comm.size());
+  std::vector<assets::ScanPerson> people(mine.end - mine.begin);
+  ParallelFor(0, static_cast<int>(people.size()), ThreadsPerRank(o.threads), [&](int k) {
+    people[k] = assets::SynthesizeScanPerson(head, tmpl, personal, alpha, static_cast<int>(mine.begin) + k, o.synth);
+  });
+  // Gather to rank 0 as bytes.
+  std::vector<uint8_t> bytes;
+  for (const auto& p : people) {
+    auto put = [&](const float* data, size_t n) {
+      const uint8_t* b = reinterpret_cast<const uint8_t*>(data);
+      bytes.insert(bytes.end(), b, b + n * sizeof(float));
+    };
+    put(p.neutral.data(), p.neutral.size());
+    put(p.expressions.data(), p.expressions.size());
+    put(p.true_deltas.data(), p.true_deltas.size());
+    put(p.true_weights.data(), p.true_weights.size());  // column-major K x N
+  }
+  const auto gathered = comm.Gather(bytes);
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    io::H5File& f = output.file;
+    WriteDatabaseHeader(&f, tmpl, head, table, alpha, P);
+    f.CreateFrames<float>("/scans/truth/deltas", {N, V, 3}, P, 1);
+    f.CreateFrames<float>("/scans/truth/weights", {K, N}, P, 16);
+    std::vector<int32_t> split(P, 0);
+    for (int j = P - o.test_people; j < P; ++j) split[j] = 1;
+    f.WriteVector<int32_t>("/scans/people/split", split);
+    f.SetAttribute("/scans/people/split", "values", std::string("0 training, 1 held out"));
+    int person = 0;
+    for (const auto& chunk : gathered) {
+      size_t at = 0;
+      const size_t per_person = sizeof(float) * (3 * V + 3 * V * K + 3 * V * N + K * N);
+      for (; at + per_person <= chunk.size(); at += per_person, ++person) {
+        const float* d = reinterpret_cast<const float*>(chunk.data() + at);
+        f.WriteFrames<float>("/scans/people/neutral", person, 1, d);
+        f.WriteFrames<float>("/scans/people/expressions", person, 1, d + 3 * V);  // [K][V*3]
+        // true deltas: 3V x N column-major = [N][V*3]
+        f.WriteFrames<float>("/scans/truth/deltas", person, 1, d + 3 * V + 3 * V * K);
+        Eigen::Map<const Eigen::MatrixXf> w(d + 3 * V + 3 * V * K + 3 * V * N, K, N);
+        Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> wr = w;
+        f.WriteFrames<float>("/scans/truth/weights", person, 1, wr.data());
+      }
+    }
+    if (person != P) throw ParallelConsistencyError("scans synth: gathered " + std::to_string(person) + " people");
+    f.Commit();
+    FC_INFO("scans synth: {} people ({} held out) x {} expressions, {} shapes, {} vertices -> {}", P,
+            o.test_people, K, N, V, o.out);
+  });
+}
+
+void RunScansImport(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<ScansImportOptions>(flags, &ctx, &resolved);
+  dist::CoordinateExceptions(ctx.comm, [&] {
+    if (!ctx.comm.IsMainRank()) return;
+    const rig::Rig topology = io::ReadRigFile(o.template_rig);
+    const assets::LinearShapes tmpl = assets::LinearizeRig(topology);
+    const auto table = assets::ParseFacsTable(o.facs);
+    const Eigen::MatrixXf alpha = assets::FacsWeights(table, tmpl.names, false);
+    std::map<std::string, int> expression_index;
+    for (size_t k = 0; k < table.size(); ++k) expression_index[table[k].name] = static_cast<int>(k);
+    std::ifstream in(o.labels);
+    if (!in) throw FileIOError(o.labels + ": cannot open the labels CSV");
+    const std::filesystem::path base = std::filesystem::path(o.labels).parent_path();
+    struct Person { std::map<int, std::string> files; std::string neutral; int split = 0; };
+    std::map<std::string, Person> people;
+    std::vector<std::string> order;
+    std::string line;
+    int line_number = 0;
+    while (std::getline(in, line)) {
+      ++line_number;
+      if (line.empty() || line[0] == '#') continue;
+      std::vector<std::string> cells;
+      std::stringstream ss(line);
+      std::string cell;
+      while (std::getline(ss, cell, ',')) cells.push_back(cell);
+      if (line_number == 1 && !cells.empty() && cells[0] == "person") continue;
+      if (cells.size() != 4) throw FileIOError(o.labels + ":" + std::to_string(line_number) + ": expected person,expression,file,split");
+      if (!people.count(cells[0])) order.push_back(cells[0]);
+      Person& p = people[cells[0]];
+      p.split = cells[3] == "test" ? 1 : 0;
+      const std::string file = (base / cells[2]).string();
+      if (cells[1] == "neutral") {
+        p.neutral = file;
+      } else {
+        auto it = expression_index.find(cells[1]);
+        if (it == expression_index.end()) throw FileIOError(o.labels + ":" + std::to_string(line_number) + ": expression '" + cells[1] + "' is not in the FACS table");
+        p.files[it->second] = file;
+      }
+    }
+    const int V = tmpl.NumVertices(), K = static_cast<int>(table.size()), P = static_cast<int>(order.size());
+    if (P == 0) throw FileIOError(o.labels + ": no people");
+    ResumableOutput output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "scans import", resolved));
+    if (output.up_to_date) return;
+    io::H5File& f = output.file;
+    WriteDatabaseHeader(&f, tmpl, topology, table, alpha, P);
+    std::vector<int32_t> split;
+    auto read = [&](const std::string& path) {
+      const io::Mesh mesh = io::ReadMeshObj(path);
+      if (mesh.vertices.rows() != V) throw FileIOError(path + ": " + std::to_string(mesh.vertices.rows()) + " vertices, the template has " + std::to_string(V));
+      return mesh.vertices;
+    };
+    for (int j = 0; j < P; ++j) {
+      const Person& p = people[order[j]];
+      if (p.neutral.empty()) throw FileIOError(o.labels + ": person " + order[j] + " has no neutral");
+      const rig::Vertices neutral = read(p.neutral);
+      f.WriteFrames<float>("/scans/people/neutral", j, 1, neutral.data());
+      std::vector<float> expressions;
+      for (int k = 0; k < K; ++k) {
+        auto it = p.files.find(k);
+        if (it == p.files.end()) throw FileIOError(o.labels + ": person " + order[j] + " lacks expression " + table[k].name);
+        const rig::Vertices e = read(it->second);
+        expressions.insert(expressions.end(), e.data(), e.data() + e.size());
+      }
+      f.WriteFrames<float>("/scans/people/expressions", j, 1, expressions.data());
+      split.push_back(p.split);
+    }
+    f.WriteVector<int32_t>("/scans/people/split", split);
+    f.WriteStrings("/scans/people/names", order);
+    f.Commit();
+    FC_INFO("scans import: {} people x {} expressions -> {}", P, K, o.out);
+  });
+}
+
+}  // namespace
+
+void RegisterScans(CLI::App* app, AppState* state) {
+  CLI::App* scans = app->add_subcommand("scans", "Scan databases of people and FACS expressions");
+  scans->require_subcommand(1);
+  AddStage<ScansSynthOptions>(
+      scans, state, "synth", "scans.synth", "scans synth",
+      "Synthetic scan database: people from the demo head's identity modes, personal blendshapes "
+      "that depend on identity, FACS expression scans with unwanted motion and noise; the true "
+      "personal shapes are stored for evaluation",
+      RunScansSynth);
+  AddStage<ScansImportOptions>(
+      scans, state, "import", "scans.import", "scans import",
+      "Registered OBJ scans (one per person and expression, listed in a labels CSV) into the scan "
+      "database layout",
+      RunScansImport);
+}
+
+}  // namespace facecap::stages

@@ -1,0 +1,396 @@
+// facecap synth clip: a wild clip of one person with the truth of every frame (pose, weights,
+// landmarks, the segmentation render of the same frame), spread across ranks, resumable,
+// identical for any rank count; `--video` adds an mp4. facecap synth sheet: wild frames beside
+// their segmentation renders in one contact sheet.
+#include <algorithm>
+#include <filesystem>
+#include <memory>
+
+#include "io/image_io.h"
+#include "io/rig_io.h"
+#include "render/contact_sheet.h"
+#include "rig/demo_head.h"
+#include "stages/cli.h"
+#include "stages/frame_loop.h"
+#include "stages/registry.h"
+#include "stages/resumable.h"
+#include "synth/appearance.h"
+#include "synth/clip.h"
+#include "util/bytes.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/random.h"
+
+namespace facecap::stages {
+namespace {
+
+constexpr int kNumLandmarks = 68;
+constexpr int kNumDegradationColumns = 6;
+
+// [synth.clip]
+struct SynthClipOptions {
+  std::string rig = "rig.h5";        // rig file (the mean person; identity_seed personalizes it)
+  std::string out = "clip.h5";       // output file
+  bool video = false;                // also write the frames to an mp4 beside `out`
+  std::string background_folder;     // photos for the background ("": procedural backgrounds)
+  int batch = 8;                     // frames per rank per round (a checkpoint per round)
+  int threads = 0;                   // OpenMP threads per rank (0: cores / ranks on the node)
+  synth::ClipOptions clip;           // the performance, appearance and camera
+
+  template <class V>
+  void Visit(V&& v) {
+    v("rig", rig, "rig file (HDF5); identity_seed makes a person of it");
+    v("out", out, "output file (HDF5)");
+    v("video", video, "also write the wild frames to an mp4 next to out (same name, .mp4)");
+    v("background_folder", background_folder,
+      "folder of photos (png, jpg, ...) for backgrounds, one picked by background_seed; "
+      "empty: procedural backgrounds");
+    v("batch", batch, "frames per rank per round; each round is a checkpoint");
+    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
+    clip.Visit(v);
+  }
+  bool Check(std::string* why) const {
+    if (batch <= 0) { *why = "batch must be positive"; return false; }
+    if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    if (out.empty()) { *why = "out must name a file"; return false; }
+    return clip.Check(why);
+  }
+};
+
+std::string VideoPath(const std::string& out) {
+  return std::filesystem::path(out).replace_extension(".mp4").string();
+}
+
+// The photo for the background: the folder's image files sorted by name, one picked by seed.
+Image8 BackgroundPhoto(const std::string& folder, int background_seed) {
+  if (folder.empty()) return Image8();
+  std::error_code ec;
+  if (!std::filesystem::is_directory(folder, ec)) {
+    throw FileIOError("background_folder " + folder + " is not a folder");
+  }
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+    if (!entry.is_regular_file()) continue;
+    std::string ext = entry.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp" || ext == ".tif" ||
+        ext == ".tiff" || ext == ".exr") {
+      files.push_back(entry.path().string());
+    }
+  }
+  if (files.empty()) {
+    throw FileIOError("background_folder " + folder + " holds no image (png, jpg, bmp, tif, exr)");
+  }
+  std::sort(files.begin(), files.end());
+  Rng rng(static_cast<uint64_t>(background_seed), 0xF0D0u);
+  return io::ReadImage8(files[rng.UniformInt(static_cast<int64_t>(files.size()))], 3);
+}
+
+void WriteClipVideo(const std::string& clip_path, const std::string& video_path, double fps) {
+  io::H5File f = io::H5File::OpenRead(clip_path);
+  const io::Shape shape = f.DatasetShape("/frames/image");
+  std::vector<Image8> frames(shape[0], Image8(static_cast<int>(shape[2]), static_cast<int>(shape[1]), 3));
+  for (int64_t i = 0; i < shape[0]; ++i) f.ReadFrames<uint8_t>("/frames/image", i, 1, frames[i].data.data());
+  const std::string codec = synth::WriteVideo(video_path, frames, fps);
+  FC_INFO("synth clip: {} frames -> {} ({})", frames.size(), video_path, codec);
+}
+
+// Per-thread rendering state.
+struct ClipThread {
+  synth::ClipRenderer::Workspace workspace;
+  synth::ClipRenderer::Frame frame;
+};
+
+void RunSynthClip(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<SynthClipOptions>(flags, &ctx, &resolved);
+  const dist::Comm& comm = ctx.comm;
+  const synth::ClipOptions& co = o.clip;
+
+  // Every rank builds the person, the trajectory and the renderer: each frame is a pure
+  // function of its index and the seeds.
+  rig::Rig person;
+  std::vector<synth::ClipFrameParams> trajectory;
+  std::unique_ptr<synth::ClipRenderer> renderer;
+  Image8 photo;
+  dist::CoordinateExceptions(comm, [&] {
+    const rig::Rig rig = io::ReadRigFile(o.rig);
+    if (rig.landmarks.size() != kNumLandmarks) {
+      throw FileIOError(o.rig + ": the rig has " + std::to_string(rig.landmarks.size()) +
+                        " landmarks, synth clip needs the 68 iBUG landmarks");
+    }
+    if (co.identity_seed != 0 && rig.identity_modes.empty()) {
+      throw FileIOError(o.rig + ": the rig has no identity modes, so identity_seed " +
+                        std::to_string(co.identity_seed) + " cannot make a person of it "
+                        "(use identity_seed = 0)");
+    }
+    person = rig::WithIdentity(rig, co.identity_seed, co.identity_magnitude);
+    trajectory = synth::MakeClipTrajectory(person, co);
+    photo = BackgroundPhoto(o.background_folder, co.background_seed);
+    renderer = std::make_unique<synth::ClipRenderer>(person, co, &photo);
+  });
+  const int S = person.NumShapes(), H = co.size, W = co.size;
+  const render::Camera& camera = renderer->camera();
+
+  ResumableOutput output;
+  std::vector<int64_t> pending;
+  int up_to_date = 0;
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "synth clip", resolved));
+    if (output.up_to_date) {
+      up_to_date = 1;
+      return;
+    }
+    io::H5File& f = output.file;
+    f.CreateFrames<uint8_t>("/frames/image", {H, W, 3}, co.frames, 1);
+    f.SetAttribute("/frames/image", "layout", std::string("frame, y, x, RGB (sRGB)"));
+    f.CreateFrames<uint8_t>("/frames/segmentation", {H, W, 3}, co.frames, 1);
+    f.SetAttribute("/frames/segmentation", "layout",
+                   std::string("frame, y, x, RGB; region colours of /regions/colors"));
+    f.CreateFrames<float>("/frames/pose", {3}, co.frames, 1024);
+    f.SetAttribute("/frames/pose", "columns", std::string("pitch, yaw, roll"));
+    f.SetAttribute("/frames/pose", "units", std::string("rad"));
+    f.CreateFrames<float>("/frames/translation", {3}, co.frames, 1024);
+    f.SetAttribute("/frames/translation", "units",
+                   std::string("cm, camera space (x right, y up, camera looks down -z)"));
+    f.CreateFrames<float>("/frames/weights", {S}, co.frames, 256);
+    f.CreateFrames<float>("/frames/landmarks", {kNumLandmarks, 2}, co.frames, 256);
+    f.SetAttribute("/frames/landmarks", "units", std::string("pixels (x right, y down), iBUG 68"));
+    f.CreateFrames<uint8_t>("/frames/landmark_visible", {kNumLandmarks}, co.frames, 1024);
+    f.CreateFrames<float>("/frames/degradation", {kNumDegradationColumns}, co.frames, 1024);
+    f.SetAttribute("/frames/degradation", "columns",
+                   std::string("exposure, defocus_sigma_px, motion_blur_px, motion_blur_angle_rad, "
+                               "noise_sigma_levels, jpeg_quality (0: none)"));
+    if (!output.resumed) {
+      std::vector<std::string> names;
+      for (const auto& s : person.shapes) names.push_back(s.name);
+      f.WriteStrings("/frames/shape_names", names);
+      std::vector<std::string> region_names;
+      Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> colors(person.regions.size(), 3);
+      for (size_t r = 0; r < person.regions.size(); ++r) {
+        region_names.push_back(person.regions[r].name);
+        colors.row(r) = person.regions[r].color.transpose();
+      }
+      f.WriteStrings("/regions/names", region_names);
+      f.WriteMatrix("/regions/colors", colors);
+      f.WriteVector<double>("/camera/intrinsics", {camera.fx, camera.fy, camera.cx, camera.cy});
+      f.SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
+      f.SetAttribute("/camera/intrinsics", "width", static_cast<int64_t>(W));
+      f.SetAttribute("/camera/intrinsics", "height", static_cast<int64_t>(H));
+      f.SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(renderer->distance()));
+      f.SetAttribute("/camera/intrinsics", "fps", static_cast<double>(co.fps));
+      f.WriteVector<int>("/identity/seed", {co.identity_seed});
+      f.WriteVector<float>("/identity/coefficients",
+                           rig::DemoIdentityCoefficients(co.identity_seed,
+                                                         static_cast<int>(person.identity_modes.size())));
+      f.SetAttribute("/identity/coefficients", "magnitude", static_cast<double>(co.identity_magnitude));
+      const synth::PersonColors& pc = renderer->colors();
+      Eigen::Matrix<float, 5, 3, Eigen::RowMajor> person_colors;
+      person_colors << pc.skin.transpose(), pc.lips.transpose(), pc.hair.transpose(),
+          pc.iris.transpose(), pc.sclera.transpose();
+      f.WriteMatrix("/identity/colors", person_colors);
+      f.SetAttribute("/identity/colors", "rows", std::string("skin, lips, hair, iris, sclera (linear RGB)"));
+      // The person's own rig, so that trackers can be scored against the true rig.
+      io::WriteRig(person, &f, "/rig");
+    }
+    io::DoneMask mask(&f, co.frames);
+    pending = mask.Pending();
+    if (output.resumed) {
+      FC_INFO("synth clip: continuing {}: {} of {} frames already done",
+              io::H5File::PartialPath(o.out), mask.NumDone(), co.frames);
+    }
+  });
+  comm.Broadcast(&up_to_date, sizeof(up_to_date));
+  if (up_to_date) {
+    if (comm.IsMainRank()) FC_INFO("synth clip: {} is up to date", o.out);
+  } else {
+    const int threads = ThreadsPerRank(o.threads);
+    std::vector<ClipThread> workers(threads);
+    FrameLoopOptions loop;
+    loop.what = "synth clip";
+    loop.batch = o.batch;
+    loop.threads = threads;
+    auto compute = [&](int64_t index, int thread) {
+      ClipThread& t = workers[thread];
+      const synth::ClipFrameParams& p = trajectory[index];
+      renderer->Render(index, p, &t.workspace, &t.frame);
+      const synth::ClipRenderer::Frame& fr = t.frame;
+      ByteWriter w;
+      w.PutVector(fr.image.data);
+      w.PutVector(fr.segmentation.data);
+      const float angles[3] = {p.pitch, p.yaw, p.roll};
+      w.PutArray(angles, 3);
+      w.PutArray(fr.pose.translation.data(), 3);
+      w.PutArray(p.weights.data(), S);
+      std::vector<float> xy;
+      std::vector<uint8_t> visible;
+      for (const auto& l : fr.landmarks) {
+        xy.push_back(l.position.x());
+        xy.push_back(l.position.y());
+        visible.push_back(l.visible ? 1 : 0);
+      }
+      w.PutVector(xy);
+      w.PutVector(visible);
+      const float degradation[kNumDegradationColumns] = {
+          fr.degradation.exposure, fr.degradation.defocus_sigma,
+          fr.degradation.motion_blur_length, fr.degradation.motion_blur_angle,
+          fr.degradation.noise_sigma, static_cast<float>(fr.degradation.jpeg_quality)};
+      w.PutArray(degradation, kNumDegradationColumns);
+      return std::move(w.bytes());
+    };
+    auto commit = [&](const std::vector<int64_t>& frames,
+                      const std::vector<std::vector<uint8_t>>& results) {
+      io::H5File& f = output.file;
+      size_t k = 0;
+      while (k < frames.size()) {
+        size_t end = k + 1;
+        while (end < frames.size() && frames[end] == frames[end - 1] + 1) ++end;
+        const int64_t n = static_cast<int64_t>(end - k);
+        std::vector<uint8_t> image, seg, vis;
+        std::vector<float> angles, translation, weights, xy, degradation;
+        auto append = [](auto* to, const auto& from) { to->insert(to->end(), from.begin(), from.end()); };
+        for (size_t j = k; j < end; ++j) {
+          ByteReader r(results[j]);
+          append(&image, r.GetVector<uint8_t>());
+          append(&seg, r.GetVector<uint8_t>());
+          append(&angles, r.GetVector<float>());
+          append(&translation, r.GetVector<float>());
+          append(&weights, r.GetVector<float>());
+          append(&xy, r.GetVector<float>());
+          append(&vis, r.GetVector<uint8_t>());
+          append(&degradation, r.GetVector<float>());
+        }
+        f.WriteFrames<uint8_t>("/frames/image", frames[k], n, image.data());
+        f.WriteFrames<uint8_t>("/frames/segmentation", frames[k], n, seg.data());
+        f.WriteFrames<float>("/frames/pose", frames[k], n, angles.data());
+        f.WriteFrames<float>("/frames/translation", frames[k], n, translation.data());
+        f.WriteFrames<float>("/frames/weights", frames[k], n, weights.data());
+        f.WriteFrames<float>("/frames/landmarks", frames[k], n, xy.data());
+        f.WriteFrames<uint8_t>("/frames/landmark_visible", frames[k], n, vis.data());
+        f.WriteFrames<float>("/frames/degradation", frames[k], n, degradation.data());
+        k = end;
+      }
+      io::DoneMask mask(&f, co.frames);
+      mask.MarkDone(frames);
+    };
+    RunFrameLoop(comm, pending, co.frames, loop, compute, commit);
+    dist::CoordinateExceptions(comm, [&] {
+      if (comm.IsMainRank()) output.file.Commit();
+    });
+    if (comm.IsMainRank()) FC_INFO("synth clip: {} frames -> {}", co.frames, o.out);
+  }
+  if (o.video) {
+    dist::CoordinateExceptions(comm, [&] {
+      if (!comm.IsMainRank()) return;
+      const std::string video = VideoPath(o.out);
+      // An mp4 older than the clip belongs to another run.
+      std::error_code ec;
+      const bool fresh = std::filesystem::exists(video, ec) &&
+                         std::filesystem::last_write_time(video, ec) >=
+                             std::filesystem::last_write_time(o.out, ec);
+      if (fresh) {
+        FC_INFO("synth clip: {} is up to date", video);
+      } else {
+        WriteClipVideo(o.out, video, co.fps);
+      }
+    });
+  }
+}
+
+// [synth.sheet]
+struct SynthSheetOptions {
+  std::string clip = "clip.h5";        // clip file made by synth clip
+  std::string out = "clip_sheet.png";  // contact sheet image
+  int frames = 12;                     // frames shown, evenly spaced over the clip
+  int pairs_per_row = 4;               // (wild, segmentation) pairs per row
+  int scale = 2;                       // nearest-neighbour magnification of each tile
+  bool landmarks = true;               // mark the visible true landmarks on the segmentation
+
+  template <class V>
+  void Visit(V&& v) {
+    v("clip", clip, "clip file (HDF5) made by synth clip");
+    v("out", out, "contact sheet image (png, jpg, ...)");
+    v("frames", frames, "frames shown, evenly spaced over the clip");
+    v("pairs_per_row", pairs_per_row, "(wild frame, segmentation) pairs per row");
+    v("scale", scale, "nearest-neighbour magnification of each tile");
+    v("landmarks", landmarks, "mark the visible true landmarks on the segmentation tiles");
+  }
+  bool Check(std::string* why) const {
+    if (frames <= 0) { *why = "frames must be positive, got " + std::to_string(frames); return false; }
+    if (pairs_per_row <= 0) { *why = "pairs_per_row must be positive"; return false; }
+    if (scale < 1 || scale > 16) { *why = "scale must be in [1, 16]"; return false; }
+    if (out.empty()) { *why = "out must name a file"; return false; }
+    return true;
+  }
+};
+
+void RunSynthSheet(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<SynthSheetOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  io::H5File f = io::H5File::OpenRead(o.clip);
+  for (const char* name : {"/frames/image", "/frames/segmentation", "/frames/landmarks",
+                           "/frames/landmark_visible"}) {
+    if (!f.Exists(name)) throw FileIOError(o.clip + ": no " + std::string(name) + " (not a clip from synth clip?)");
+  }
+  const io::Shape shape = f.DatasetShape("/frames/image");
+  const int64_t num_frames = shape[0];
+  const int H = static_cast<int>(shape[1]), W = static_cast<int>(shape[2]);
+  const int shown = static_cast<int>(std::min<int64_t>(o.frames, num_frames));
+  std::vector<Image8> tiles;
+  for (int i = 0; i < shown; ++i) {
+    const int64_t frame = shown == 1 ? 0 : (i * (num_frames - 1)) / (shown - 1);
+    Image8 image(W, H, 3), seg(W, H, 3);
+    f.ReadFrames<uint8_t>("/frames/image", frame, 1, image.data.data());
+    f.ReadFrames<uint8_t>("/frames/segmentation", frame, 1, seg.data.data());
+    Image8 seg_big = synth::UpscaleNearest(seg, o.scale);
+    if (o.landmarks) {
+      std::vector<float> xy(kNumLandmarks * 2);
+      std::vector<uint8_t> visible(kNumLandmarks);
+      f.ReadFrames<float>("/frames/landmarks", frame, 1, xy.data());
+      f.ReadFrames<uint8_t>("/frames/landmark_visible", frame, 1, visible.data());
+      for (int l = 0; l < kNumLandmarks; ++l) {
+        if (!visible[l]) continue;
+        const int cx = static_cast<int>(xy[2 * l] * o.scale), cy = static_cast<int>(xy[2 * l + 1] * o.scale);
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int x = cx + dx, y = cy + dy;
+            if (x < 0 || y < 0 || x >= seg_big.width || y >= seg_big.height) continue;
+            seg_big.at(x, y, 0) = 255;
+            seg_big.at(x, y, 1) = 255;
+            seg_big.at(x, y, 2) = 255;
+          }
+        }
+      }
+    }
+    tiles.push_back(synth::UpscaleNearest(image, o.scale));
+    tiles.push_back(std::move(seg_big));
+  }
+  render::ContactSheetOptions sheet;
+  sheet.columns = 2 * std::min(o.pairs_per_row, shown);
+  sheet.border = 2;
+  io::WriteImage(o.out, render::ContactSheet(tiles, sheet));
+  FC_INFO("synth sheet: {} frames of {} (wild | segmentation) -> {}", shown, o.clip, o.out);
+}
+
+}  // namespace
+
+void RegisterSynthClip(CLI::App* synth, AppState* state) {
+  AddStage<SynthClipOptions>(
+      synth, state, "clip", "synth.clip", "synth clip",
+      "A wild clip of one person (identity_seed): a smooth random or scripted performance of "
+      "expressions and head motion, skin-like texture, moving lights, backgrounds, blur, noise "
+      "and JPEG, with the true pose, weights, landmarks and segmentation of every frame; "
+      "spread across ranks, identical for any rank count, resumable; --video adds an mp4",
+      RunSynthClip);
+  AddStage<SynthSheetOptions>(
+      synth, state, "sheet", "synth.sheet", "synth sheet",
+      "Contact sheet of a clip's wild frames, each beside the segmentation render of the same "
+      "frame (with its visible true landmarks)",
+      RunSynthSheet);
+}
+
+}  // namespace facecap::stages

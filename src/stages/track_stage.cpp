@@ -1,0 +1,346 @@
+// facecap track: inverse-rendering tracking (paper 000 Sec. 8) of every frame of a file of
+// segmentation targets, frames handed out by the dynamic work queue, resumable, identical
+// for any number of ranks.
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+
+#include "io/hdf5.h"
+#include "io/rig_io.h"
+#include "render/framing.h"
+#include "rig/arkit.h"
+#include "stages/cli.h"
+#include "stages/frame_loop.h"
+#include "stages/registry.h"
+#include "stages/resumable.h"
+#include "track/tracker.h"
+#include "util/bytes.h"
+#include "util/errors.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+namespace {
+
+// [track]
+struct TrackOptions {
+  std::string rig = "rig.h5";             // rig file (HDF5, /rig)
+  std::string targets = "targets.h5";     // file of segmentation targets
+  std::string out = "track.h5";           // output file
+  // Frame dataset of target images [N, H, W, 3] u8; when absent, /samples/segmentation.
+  std::string targets_dataset = "/frames/segmentation";
+  // Optional per-frame 2 x 3 similarity [N, 2, 3] f32 from rig-frame pixels to target pixels
+  // (paper Fig. 18: crops of real footage); empty: targets are already in the rig's frame.
+  std::string alignment_dataset = "";
+  // Initialisation: "neutral" (frontal neutral, frames independent), "landmarks" (the pose
+  // fitted to the file's 2D landmarks, neutral expression) or "previous" (each frame starts
+  // from the previous frame's solution; frames are solved in segments of segment_frames).
+  std::string init = "neutral";
+  int segment_frames = 16;                // frames per sequential segment (init = previous)
+  // Texture of model and target: "segmentation" (T_seg) or "skin" (a realistic skin albedo
+  // per region, targets recoloured region by region: the realistic-texture baseline).
+  std::string texture = "segmentation";
+  int count = 0;                          // frames to track from the first (0: all)
+  int batch = 4;                          // work units per rank per round (a checkpoint each)
+  int threads = 0;                        // OpenMP threads per rank (0: cores / node ranks)
+  track::TrackerOptions tracker;          // the solver
+
+  template <class V>
+  void Visit(V&& v) {
+    v("rig", rig, "rig file (HDF5)");
+    v("targets", targets, "file of segmentation targets (HDF5) with /camera/intrinsics");
+    v("out", out, "output file (HDF5)");
+    v("targets_dataset", targets_dataset,
+      "frame dataset of target images [N,H,W,3] u8 (falls back to /samples/segmentation)");
+    v("alignment_dataset", alignment_dataset,
+      "per-frame 2x3 similarity from rig-frame to target pixels (empty: none)");
+    v("init", init, "initialisation: neutral | landmarks | previous");
+    v("segment_frames", segment_frames, "frames per sequential segment when init = previous");
+    v("texture", texture, "texture of model and targets: segmentation | skin");
+    v("count", count, "frames to track from the first (0: all)");
+    v("batch", batch, "work units per rank per round; each round is a checkpoint");
+    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
+    tracker.Visit(v);
+  }
+  bool Check(std::string* why) const {
+    if (init != "neutral" && init != "landmarks" && init != "previous") {
+      *why = "init must be neutral, landmarks or previous, not " + init;
+      return false;
+    }
+    if (texture != "segmentation" && texture != "skin") {
+      *why = "texture must be segmentation or skin, not " + texture;
+      return false;
+    }
+    if (segment_frames < 1) { *why = "segment_frames must be >= 1"; return false; }
+    if (count < 0) { *why = "count must be >= 0"; return false; }
+    if (batch <= 0) { *why = "batch must be positive"; return false; }
+    if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    return tracker.Check(why);
+  }
+};
+
+// What the stage reads of a targets file.
+struct TargetsInfo {
+  std::string images;         // dataset of target images
+  std::string landmarks;      // dataset of 2D landmarks or empty
+  std::string visible;        // dataset of landmark visibility or empty
+  int64_t frames = 0;
+  int width = 0, height = 0;
+  render::Camera camera;
+  float distance_cm = 0.f;    // framing distance (0: unknown)
+};
+
+std::string FirstExisting(const io::H5File& f, std::initializer_list<std::string> names) {
+  for (const auto& n : names) {
+    if (!n.empty() && f.Exists(n)) return n;
+  }
+  return "";
+}
+
+TargetsInfo InspectTargets(const std::string& path, const std::string& dataset) {
+  io::H5File f = io::H5File::OpenRead(path);
+  TargetsInfo info;
+  info.images = FirstExisting(f, {dataset, "/samples/segmentation"});
+  if (info.images.empty()) {
+    throw FileIOError(path + ": no target dataset " + dataset + " (nor /samples/segmentation)");
+  }
+  const io::Shape shape = f.CheckShape(info.images, {-1, -1, -1, 3});
+  info.frames = shape[0];
+  info.height = static_cast<int>(shape[1]);
+  info.width = static_cast<int>(shape[2]);
+  if (!f.Exists("/camera/intrinsics")) throw FileIOError(path + ": no /camera/intrinsics");
+  const std::vector<double> k = f.ReadVector<double>("/camera/intrinsics", 4);
+  info.camera.width = info.width;
+  info.camera.height = info.height;
+  info.camera.fx = static_cast<float>(k[0]);
+  info.camera.fy = static_cast<float>(k[1]);
+  info.camera.cx = static_cast<float>(k[2]);
+  info.camera.cy = static_cast<float>(k[3]);
+  if (f.HasAttribute("/camera/intrinsics", "distance_cm")) {
+    info.distance_cm = static_cast<float>(f.GetDoubleAttribute("/camera/intrinsics", "distance_cm"));
+  }
+  const std::string group = info.images.substr(0, info.images.rfind('/'));
+  info.landmarks = FirstExisting(f, {group + "/landmarks"});
+  info.visible = info.landmarks.empty() ? "" : FirstExisting(f, {group + "/landmark_visible"});
+  return info;
+}
+
+void RunTrack(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<TrackOptions>(flags, &ctx, &resolved);
+  const dist::Comm& comm = ctx.comm;
+
+  rig::Rig rig;
+  TargetsInfo info;
+  dist::CoordinateExceptions(comm, [&] {
+    std::string why;
+    if (!o.Check(&why)) throw InvalidInputError("track: " + why);
+    rig = io::ReadRigFile(o.rig);
+    info = InspectTargets(o.targets, o.targets_dataset);
+    if ((o.init == "landmarks" || o.tracker.objective == "landmarks") && info.landmarks.empty()) {
+      throw FileIOError(o.targets + ": init/objective landmarks needs a landmarks dataset beside " +
+                        info.images);
+    }
+  });
+  const int64_t frames = o.count > 0 ? std::min<int64_t>(o.count, info.frames) : info.frames;
+  const int S = rig.NumShapes();
+  const float distance = info.distance_cm > 0.f
+                             ? info.distance_cm
+                             : render::FramingDistance(rig, info.camera, 0.7f);
+  const int64_t unit_frames = o.init == "previous" ? o.segment_frames : 1;
+  const int64_t units = (frames + unit_frames - 1) / unit_frames;
+
+  const std::vector<Eigen::Vector3f> seg_colors = track::RigRegionColors(rig);
+  const std::vector<Eigen::Vector3f> model_colors =
+      o.texture == "skin" ? track::SkinRegionColors(rig) : seg_colors;
+  const track::Tracker tracker(rig, model_colors, o.tracker);
+
+  ResumableOutput output;
+  std::vector<int64_t> pending;
+  int up_to_date = 0;
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "track", resolved));
+    if (output.up_to_date) {
+      up_to_date = 1;
+      return;
+    }
+    io::H5File& f = output.file;
+    f.CreateFrames<float>("/track/pose", {3}, frames, 1024, 4);
+    f.SetAttribute("/track/pose", "columns", std::string("pitch, yaw, roll"));
+    f.SetAttribute("/track/pose", "units", std::string("rad"));
+    f.CreateFrames<float>("/track/translation", {3}, frames, 1024, 4);
+    f.SetAttribute("/track/translation", "units", std::string("cm (camera space)"));
+    f.CreateFrames<float>("/track/scale", {}, frames, 1024, 4);
+    f.CreateFrames<float>("/track/weights", {S}, frames, 256, 4);
+    f.CreateFrames<double>("/track/cost", {}, frames, 1024, 4);
+    f.SetAttribute("/track/cost", "meaning",
+                   std::string("final 0.5 |F - T|^2 of the objective at full resolution"));
+    f.CreateFrames<double>("/track/initial_cost", {}, frames, 1024, 4);
+    f.CreateFrames<int32_t>("/track/iterations", {}, frames, 1024, 4);
+    f.CreateFrames<int32_t>("/track/evaluations", {}, frames, 1024, 4);
+    f.CreateFrames<int32_t>("/track/termination", {}, frames, 1024, 4);
+    f.SetAttribute("/track/termination", "codes",
+                   std::string("0 CONVERGENCE, 1 NO_CONVERGENCE, 2 FAILURE"));
+    f.CreateFrames<double>("/track/seconds", {}, frames, 1024, 4);
+    f.SetAttribute("/track/seconds", "meaning", std::string("wall time of the frame's solve"));
+    if (!output.resumed) {
+      std::vector<std::string> names;
+      for (const auto& s : rig.shapes) names.push_back(s.name);
+      f.WriteStrings("/track/shape_names", names);
+      const render::Camera& c = info.camera;
+      f.WriteVector<double>("/camera/intrinsics", {c.fx, c.fy, c.cx, c.cy});
+      f.SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
+      f.SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(distance));
+      f.SetAttribute("/track", "targets", o.targets);
+      f.SetAttribute("/track", "targets_dataset", info.images);
+    }
+    io::DoneMask mask(&f, units);
+    pending = mask.Pending();
+    if (output.resumed) {
+      FC_INFO("track: continuing {}: {} of {} work units already done",
+              io::H5File::PartialPath(o.out), mask.NumDone(), units);
+    }
+  });
+  comm.Broadcast(&up_to_date, sizeof(up_to_date));
+  if (up_to_date) {
+    if (comm.IsMainRank()) FC_INFO("track: {} is up to date", o.out);
+    return;
+  }
+
+  // Every rank reads its targets; HDF5 reads are serialized within the rank.
+  io::H5File targets_file;
+  dist::CoordinateExceptions(comm, [&] { targets_file = io::H5File::OpenRead(o.targets); });
+  std::mutex read_mutex;
+  const int W = info.width, H = info.height;
+  auto read_target = [&](int64_t frame) {
+    track::TrackTarget t;
+    t.camera = info.camera;
+    Image8 image(W, H, 3);
+    Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor> lm;
+    std::vector<uint8_t> visible;
+    std::vector<float> alignment;
+    {
+      std::lock_guard<std::mutex> lock(read_mutex);
+      targets_file.ReadFrames<uint8_t>(info.images, frame, 1, image.data.data());
+      if (!info.landmarks.empty()) {
+        const io::Shape ls = targets_file.DatasetShape(info.landmarks);
+        lm.resize(ls[1], 2);
+        targets_file.ReadFrames<float>(info.landmarks, frame, 1, lm.data());
+        if (!info.visible.empty()) {
+          visible.resize(ls[1]);
+          targets_file.ReadFrames<uint8_t>(info.visible, frame, 1, visible.data());
+        }
+      }
+      if (!o.alignment_dataset.empty()) {
+        alignment.resize(6);
+        targets_file.ReadFrames<float>(o.alignment_dataset, frame, 1, alignment.data());
+      }
+    }
+    t.image = track::ToFloatImage(image);
+    if (!alignment.empty()) {
+      // Bring the target into the rig's image frame (paper Fig. 18).
+      Eigen::Matrix<float, 2, 3> a;
+      a << alignment[0], alignment[1], alignment[2], alignment[3], alignment[4], alignment[5];
+      t.image = track::WarpToRigFrame(t.image, a, W, H, 0.f);
+    }
+    if (o.texture == "skin") {
+      t.image = track::RecolorSegmentation(t.image, seg_colors, model_colors,
+                                           o.tracker.soft.background_color);
+    }
+    t.landmarks = lm;
+    t.landmark_visible = visible;
+    return t;
+  };
+
+  const rig::RigidPose neutral_pose = render::FramedPose(rig, distance, 0.f, 0.f);
+  const Eigen::VectorXf neutral_weights = Eigen::VectorXf::Zero(S);
+  const int threads = ThreadsPerRank(o.threads);
+  FrameLoopOptions loop;
+  loop.what = "track";
+  loop.batch = o.batch;
+  loop.dynamic = true;
+  loop.threads = threads;
+  auto compute = [&](int64_t unit, int /*thread*/) {
+    ByteWriter w;
+    const int64_t first = unit * unit_frames;
+    const int64_t last = std::min(frames, first + unit_frames);
+    rig::RigidPose pose = neutral_pose;
+    Eigen::VectorXf weights = neutral_weights;
+    for (int64_t frame = first; frame < last; ++frame) {
+      const track::TrackTarget target = read_target(frame);
+      if (o.init == "landmarks") {
+        pose = tracker.PoseFromLandmarks(target, neutral_pose, neutral_weights);
+        weights = neutral_weights;
+      } else if (o.init == "neutral") {
+        pose = neutral_pose;
+        weights = neutral_weights;
+      }  // "previous": keep the last solution (the segment starts from the neutral)
+      const track::TrackResult r = tracker.Solve(target, pose, weights);
+      pose = r.pose;
+      weights = r.weights;
+      const float angles[3] = {r.pose.pitch, r.pose.yaw, r.pose.roll};
+      w.PutArray(angles, 3);
+      w.PutArray(r.pose.translation.data(), 3);
+      w.Put<float>(r.pose.scale);
+      w.PutArray(r.weights.data(), S);
+      w.Put<double>(r.summary.final_cost);
+      w.Put<double>(r.summary.initial_cost);
+      w.Put<int32_t>(r.summary.iterations);
+      w.Put<int32_t>(r.summary.evaluations);
+      w.Put<int32_t>(static_cast<int32_t>(r.summary.termination));
+      w.Put<double>(r.summary.seconds);
+    }
+    return std::move(w.bytes());
+  };
+  auto commit = [&](const std::vector<int64_t>& done_units,
+                    const std::vector<std::vector<uint8_t>>& results) {
+    io::H5File& f = output.file;
+    for (size_t k = 0; k < done_units.size(); ++k) {
+      ByteReader r(results[k]);
+      const int64_t first = done_units[k] * unit_frames;
+      const int64_t last = std::min(frames, first + unit_frames);
+      for (int64_t frame = first; frame < last; ++frame) {
+        const auto angles = r.GetVector<float>();
+        const auto translation = r.GetVector<float>();
+        const float scale = r.Get<float>();
+        const auto weights = r.GetVector<float>();
+        const double cost = r.Get<double>(), initial = r.Get<double>();
+        const int32_t iterations = r.Get<int32_t>(), evaluations = r.Get<int32_t>();
+        const int32_t termination = r.Get<int32_t>();
+        const double seconds = r.Get<double>();
+        f.WriteFrames<float>("/track/pose", frame, 1, angles.data());
+        f.WriteFrames<float>("/track/translation", frame, 1, translation.data());
+        f.WriteFrames<float>("/track/scale", frame, 1, &scale);
+        f.WriteFrames<float>("/track/weights", frame, 1, weights.data());
+        f.WriteFrames<double>("/track/cost", frame, 1, &cost);
+        f.WriteFrames<double>("/track/initial_cost", frame, 1, &initial);
+        f.WriteFrames<int32_t>("/track/iterations", frame, 1, &iterations);
+        f.WriteFrames<int32_t>("/track/evaluations", frame, 1, &evaluations);
+        f.WriteFrames<int32_t>("/track/termination", frame, 1, &termination);
+        f.WriteFrames<double>("/track/seconds", frame, 1, &seconds);
+      }
+    }
+    io::DoneMask mask(&f, units);
+    mask.MarkDone(done_units);
+  };
+  RunFrameLoop(comm, pending, units, loop, compute, commit);
+  dist::CoordinateExceptions(comm, [&] {
+    if (comm.IsMainRank()) output.file.Commit();
+  });
+  if (comm.IsMainRank()) FC_INFO("track: {} frames -> {}", frames, o.out);
+}
+
+}  // namespace
+
+void RegisterTrack(CLI::App* app, AppState* state) {
+  AddStage<TrackOptions>(
+      app, state, "track", "track", "track",
+      "Inverse-rendering tracking (paper 000 Sec. 8): per frame, the rig's rigid pose and "
+      "controls that make its soft segmentation render match the target, by block coordinate "
+      "descent (pose, jaw, rest) with Ceres; frames spread across ranks by a dynamic work "
+      "queue, identical for any rank count, resumable",
+      RunTrack);
+}
+
+}  // namespace facecap::stages

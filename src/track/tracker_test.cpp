@@ -1,0 +1,127 @@
+// The inverse-rendering tracker on clean segmentation renders of the demo head with known
+// parameters: the block coordinate descent recovers pose and weights from the neutral frontal
+// start, and the landmark fit recovers the pose. (The pixel Jacobians are checked against
+// central differences in soft_segmentation_test.cpp.)
+#include "track/tracker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+#include "render/framing.h"
+#include "render/gbuffer_images.h"
+#include "render/landmarks.h"
+#include "render/rasterizer.h"
+#include "rig/demo_head.h"
+#include "rig/evaluate.h"
+
+namespace facecap::track {
+namespace {
+
+class TrackerTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    rig::DemoHeadOptions o;
+    o.resolution = 60;
+    o.num_identity_modes = 0;
+    rig_ = new rig::Rig(rig::MakeDemoHead(o));
+  }
+  static void TearDownTestSuite() { delete rig_; }
+
+  void SetUp() override {
+    camera_ = render::Camera::FromFov(64, 64, 20.f);
+    distance_ = render::FramingDistance(*rig_, camera_, 0.7f);
+  }
+
+  // A clean hard segmentation render (uint8, as stored in files) with landmarks.
+  TrackTarget Target(const rig::RigidPose& pose, const Eigen::VectorXf& weights) const {
+    rig::Vertices posed;
+    rig::EvaluatePosed(*rig_, pose, weights, &posed);
+    render::GBuffer g;
+    render::Rasterize(posed, rig_->triangles, camera_, &g);
+    Image8 seg;
+    render::RenderSegmentation(g, rig_->triangle_region, rig_->regions, Eigen::Vector3f::Zero(),
+                               &seg);
+    std::vector<render::Landmark2D> lm;
+    render::ProjectLandmarks(posed, rig_->triangles, rig_->landmarks, camera_, g, &lm);
+    TrackTarget t;
+    t.camera = camera_;
+    t.image = ToFloatImage(seg);
+    t.landmarks.resize(lm.size(), 2);
+    for (size_t i = 0; i < lm.size(); ++i) {
+      t.landmarks.row(i) = lm[i].position.transpose();
+      t.landmark_visible.push_back(lm[i].visible ? 1 : 0);
+    }
+    return t;
+  }
+
+  Eigen::VectorXf Weights(std::initializer_list<std::pair<const char*, float>> values) const {
+    Eigen::VectorXf w = Eigen::VectorXf::Zero(rig_->NumShapes());
+    for (const auto& [name, value] : values) w[rig_->ShapeIndex(name)] = value;
+    return w;
+  }
+
+  static rig::Rig* rig_;
+  render::Camera camera_;
+  float distance_ = 0.f;
+};
+
+rig::Rig* TrackerTest::rig_ = nullptr;
+
+double AngleDeg(const rig::RigidPose& a, const rig::RigidPose& b) {
+  const Eigen::Matrix3f r = a.Rotation().transpose() * b.Rotation();
+  const double c = std::clamp((r.trace() - 1.0) / 2.0, -1.0, 1.0);
+  return std::acos(c) * 180.0 / M_PI;
+}
+
+TEST_F(TrackerTest, RecoversPoseAndWeightsFromNeutralFrontal) {
+  const rig::RigidPose truth_pose = render::FramedPose(*rig_, distance_, 0.06f, -0.25f);
+  const Eigen::VectorXf truth = Weights({{"jawOpen", 0.45f},
+                                         {"eyeBlinkRight", 0.6f},
+                                         {"mouthSmileLeft", 0.5f},
+                                         {"browInnerUp", 0.5f}});
+  const TrackTarget target = Target(truth_pose, truth);
+  TrackerOptions options;
+  Tracker tracker(*rig_, RigRegionColors(*rig_), options);
+  const rig::RigidPose start = render::FramedPose(*rig_, distance_, 0.f, 0.f);
+  const TrackResult result = tracker.Solve(target, start, Eigen::VectorXf::Zero(rig_->NumShapes()));
+  std::printf("%s\n", result.summary.BriefReport().c_str());
+  std::printf("cost at truth %.3f\n", tracker.SegmentationCost(target, truth_pose, truth));
+  const double angle = AngleDeg(result.pose, truth_pose);
+  const double mae = (result.weights - truth).cwiseAbs().mean();
+  std::printf("pose error %.3f deg, translation error %.3f cm, weight MAE %.4f\n", angle,
+              (result.pose.translation - truth_pose.translation).norm(), mae);
+  for (const char* name : {"jawOpen", "eyeBlinkRight", "mouthSmileLeft", "browInnerUp"}) {
+    std::printf("  %s: %.3f (truth %.3f)\n", name, result.weights[rig_->ShapeIndex(name)],
+                truth[rig_->ShapeIndex(name)]);
+  }
+  EXPECT_LT(angle, 1.0);
+  EXPECT_LT(mae, 0.04);
+  EXPECT_NEAR(result.weights[rig_->ShapeIndex("jawOpen")], 0.45f, 0.1f);
+  EXPECT_NEAR(result.weights[rig_->ShapeIndex("eyeBlinkRight")], 0.6f, 0.3f);
+  EXPECT_NEAR(result.weights[rig_->ShapeIndex("browInnerUp")], 0.5f, 0.15f);
+  EXPECT_LT(result.summary.final_cost, 0.2 * result.summary.initial_cost);
+  EXPECT_NE(result.summary.termination, Termination::kFailure);
+}
+
+TEST_F(TrackerTest, LandmarkFitRecoversPose) {
+  const rig::RigidPose truth_pose = render::FramedPose(*rig_, distance_, -0.08f, 0.4f);
+  const TrackTarget target = Target(truth_pose, Weights({{"jawOpen", 0.3f}}));
+  TrackerOptions options;
+  Tracker tracker(*rig_, RigRegionColors(*rig_), options);
+  const rig::RigidPose start = render::FramedPose(*rig_, distance_, 0.f, 0.f);
+  const rig::RigidPose pose =
+      tracker.PoseFromLandmarks(target, start, Weights({{"jawOpen", 0.3f}}));
+  EXPECT_LT(AngleDeg(pose, truth_pose), 0.5);
+  options.objective = "landmarks";
+  Tracker landmark_tracker(*rig_, RigRegionColors(*rig_), options);
+  const TrackResult r =
+      landmark_tracker.Solve(target, start, Eigen::VectorXf::Zero(rig_->NumShapes()));
+  EXPECT_LT(AngleDeg(r.pose, truth_pose), 1.0);
+  EXPECT_NEAR(r.weights[rig_->ShapeIndex("jawOpen")], 0.3f, 0.1f);
+}
+
+}  // namespace
+}  // namespace facecap::track
