@@ -14,8 +14,10 @@
 set -euo pipefail
 
 source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-build_dir="${1:-${FACECAP_BUILD_DIR:-${source_dir}/build}}"
+build_dir="$(cd "${1:-${FACECAP_BUILD_DIR:-${source_dir}/build}}" && pwd)"
 work_dir="${2:-$(mktemp -d)}"
+mkdir -p "${work_dir}"
+work_dir="$(cd "${work_dir}" && pwd)"
 minutes="${MINUTES:-20}"
 ranks="${RANKS:-2}"
 size="${SIZE:-64}"

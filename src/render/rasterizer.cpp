@@ -226,6 +226,18 @@ void ResolveRows(const rig::Vertices& vertices, const rig::Triangles& triangles,
   }
 }
 
+// Replaces 1 / depth by depth in the rows [row_begin, row_end); barycentrics are left as they
+// are (RasterizeOptions::barycentrics false).
+void ResolveDepthRows(int row_begin, int row_end, GBuffer* gbuffer) {
+  const float infinity = std::numeric_limits<float>::infinity();
+  const size_t begin = static_cast<size_t>(row_begin) * gbuffer->width;
+  const size_t end = static_cast<size_t>(row_end) * gbuffer->width;
+  for (size_t pixel = begin; pixel < end; ++pixel) {
+    float& depth = gbuffer->depth[pixel];
+    depth = gbuffer->triangle[pixel] < 0 ? infinity : 1.f / depth;
+  }
+}
+
 }  // namespace
 
 bool RasterizeOptions::Check(std::string* why) const {
@@ -292,7 +304,11 @@ void Rasterize(const rig::Vertices& camera_vertices, const rig::Triangles& trian
     int row_begin, row_end;
     band_rows(band, &row_begin, &row_end);
     RasterizeRows(triangles, options.cull_back_faces, row_begin, row_end, gbuffer);
-    ResolveRows(camera_vertices, triangles, camera, row_begin, row_end, gbuffer);
+    if (options.barycentrics) {
+      ResolveRows(camera_vertices, triangles, camera, row_begin, row_end, gbuffer);
+    } else {
+      ResolveDepthRows(row_begin, row_end, gbuffer);
+    }
   });
 }
 

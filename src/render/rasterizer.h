@@ -32,6 +32,11 @@ struct RasterizeOptions {
   // depend on the count). 1 runs inline, <= 0 uses DefaultNumThreads(). Renders that are run
   // many at a time (synthetic samples) should stay at 1 and parallelize over renders.
   int num_threads = 1;
+  // Fill GBuffer::barycentrics (perspective-correct, by intersecting each pixel's ray with its
+  // triangle). Renders that need only triangle ids and depth (segmentation images, the soft
+  // renderer's visibility) skip it; depth then comes from the interpolated 1 / depth, which
+  // is exact for a planar triangle up to rounding.
+  bool barycentrics = true;
 
   // False, with the reason in *why, when a field is out of range.
   bool Check(std::string* why) const;

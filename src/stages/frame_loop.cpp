@@ -59,26 +59,34 @@ int64_t RunFrameLoop(const dist::Comm& comm, std::vector<int64_t> pending, int64
   int64_t computed = 0;
   for (int64_t round_begin = 0; round_begin < num_pending; round_begin += per_round) {
     const int64_t round_size = std::min(per_round, num_pending - round_begin);
-    // This rank's positions within the round.
+    // This rank's positions within the round, and their results.
     std::vector<int64_t> mine;
+    std::vector<std::vector<uint8_t>> results;
+    auto compute_from = [&](size_t first) {  // computes mine[first, end) on the rank's threads
+      results.resize(mine.size());
+      ParallelFor(static_cast<int>(first), static_cast<int>(mine.size()), threads, [&](int k) {
+        results[k] = compute(pending[round_begin + mine[k]], omp_get_thread_num() % threads);
+      });
+    };
     if (options.dynamic && !comm.IsSingle()) {
-      // Claim positions a few at a time from a queue shared by all ranks.
+      // Claim one position per thread from a queue shared by all ranks, compute them, claim
+      // again: a rank whose frames are cheap comes back sooner and takes more. Claims are made
+      // by the main thread only (MPI_THREAD_FUNNELED).
       dist::WorkQueue queue(comm, round_size, std::max<int64_t>(1, threads));
-      int64_t count = 0;
-      for (int64_t first = queue.Next(&count); first >= 0; first = queue.Next(&count)) {
-        for (int64_t p = first; p < first + count; ++p) mine.push_back(p);
-      }
+      dist::CoordinateExceptions(comm, [&] {
+        int64_t count = 0;
+        for (int64_t first = queue.Next(&count); first >= 0; first = queue.Next(&count)) {
+          const size_t begin = mine.size();
+          for (int64_t p = first; p < first + count; ++p) mine.push_back(p);
+          compute_from(begin);
+        }
+      });
     } else {
       const dist::Range range = dist::BlockRange(round_size, comm.rank(), comm.size());
       for (int64_t p = range.begin; p < range.end; ++p) mine.push_back(p);
+      dist::CoordinateExceptions(comm, [&] { compute_from(0); });
     }
-    // Compute this rank's frames; serialize as (position, bytes) pairs.
-    std::vector<std::vector<uint8_t>> results(mine.size());
-    dist::CoordinateExceptions(comm, [&] {
-      ParallelFor(0, static_cast<int>(mine.size()), threads, [&](int k) {
-        results[k] = compute(pending[round_begin + mine[k]], omp_get_thread_num() % threads);
-      });
-    });
+    // Serialize this rank's frames as (position, bytes) pairs.
     std::vector<uint8_t> packed;
     for (size_t k = 0; k < mine.size(); ++k) {
       const int64_t position = mine[k];

@@ -40,7 +40,7 @@ struct TrackOptions {
   // per region, targets recoloured region by region: the realistic-texture baseline).
   std::string texture = "segmentation";
   int count = 0;                          // frames to track from the first (0: all)
-  int batch = 4;                          // work units per rank per round (a checkpoint each)
+  int batch = 16;                         // work units per rank per round (a checkpoint each)
   int threads = 0;                        // OpenMP threads per rank (0: cores / node ranks)
   track::TrackerOptions tracker;          // the solver
 

@@ -97,7 +97,9 @@ float Cross(const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
 void SoftSegmentationRenderer::Render(const rig::Vertices& camera_vertices,
                                       const render::Camera& camera, SoftRender* out) const {
   const rig::Triangles& tris = rig_.triangles;
-  render::Rasterize(camera_vertices, tris, camera, &out->gbuffer);
+  render::RasterizeOptions raster;
+  raster.barycentrics = false;  // triangle ids and depth are all this render reads
+  render::Rasterize(camera_vertices, tris, camera, &out->gbuffer, raster);
   const render::GBuffer& g = out->gbuffer;
   const int W = g.width, H = g.height, num_pixels = g.NumPixels();
   const float w = options_.edge_width_px;

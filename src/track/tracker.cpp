@@ -39,6 +39,10 @@ bool TrackerOptions::Check(std::string* why) const {
     *why = "function_tolerance must be positive";
     return false;
   }
+  if (!(convergence_tolerance > 0. && convergence_tolerance < 1.)) {
+    *why = "convergence_tolerance must be in (0, 1)";
+    return false;
+  }
   return soft.Check(why);
 }
 
@@ -113,6 +117,9 @@ struct Tracker::Impl {
   Eigen::MatrixXf rows;
   SoftJacobianWorkspace jacobian_ws;
   int evaluations = 0;
+  // The parameters `render` was made at: Ceres asks for the Jacobian of an accepted step at
+  // the point whose cost it has just evaluated, and the render is reused then.
+  Eigen::VectorXf rendered_at;
 
   Impl(const Tracker& t, const TrackTarget& tg) : tracker(t), target(tg) {}
 
@@ -122,9 +129,12 @@ struct Tracker::Impl {
     rig::RigidPose pose;
     Eigen::VectorXf weights;
     Unpack(full, &pose, &weights);
-    tracker.evaluator_.EvaluatePosed(pose, weights, &posed);
-    tracker.renderer_.Render(posed, target.camera, &render);
-    ++evaluations;
+    if (rendered_at.size() != full.size() || rendered_at != full) {
+      tracker.evaluator_.EvaluatePosed(pose, weights, &posed);
+      tracker.renderer_.Render(posed, target.camera, &render);
+      rendered_at = full;
+      ++evaluations;
+    }
     const std::vector<float>& c =
         tracker.options_.hard_residual ? render.hard_color : render.color;
     const std::vector<float>& t = target.image.data;
@@ -278,7 +288,6 @@ class WeightPrior : public ceres::CostFunction {
 
 struct BlockOutcome {
   int iterations = 0;
-  bool converged = false;
   bool failed = false;
 };
 
@@ -328,16 +337,51 @@ BlockOutcome SolveBlock(Tracker::Impl* impl, BlockState* state, bool landmarks,
   so.function_tolerance = options.function_tolerance;
   so.gradient_tolerance = 1e-10;
   so.parameter_tolerance = 1e-7;
+  // Bounds are enforced by Ceres projecting each step onto the box; its extra projected line
+  // search for bounded problems evaluates the full Jacobian (a render) at every trial step and
+  // would triple the renders per iteration.
+  so.max_num_line_search_step_size_iterations = 0;
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   outcome.iterations = static_cast<int>(summary.iterations.size()) - 1;
-  outcome.converged = summary.termination_type == ceres::CONVERGENCE;
   outcome.failed = summary.termination_type == ceres::FAILURE;
   // Keep the best point Ceres found (it returns the last accepted one).
   for (int k = 0; k < m; ++k) state->params[state->columns[k]] = block[k];
   return outcome;
+}
+
+// The columns of a block that a bounded step can move: a weight at a bound whose gradient
+// pushes it out of [0, 1] stays there for this block solve (the active set of a projected
+// method). Without this, the Gauss-Newton step of a block with many weights at 0 (most
+// expressions leave most shapes off) points out of the box; its projection decreases the cost
+// far less than the model predicts and the trust region rejects step after step. The set is
+// formed anew for every block solve, so a weight leaves its bound when the gradient turns.
+std::vector<int> FreeColumns(Tracker::Impl* impl, const BlockState& state,
+                             const std::vector<int>& columns, bool landmarks, double prior) {
+  std::vector<int> weight_columns;
+  for (int c : columns) {
+    if (c >= rig::kNumPoseParams) weight_columns.push_back(c);
+  }
+  if (weight_columns.empty()) return columns;
+  Eigen::MatrixXd normal;
+  Eigen::VectorXd gradient;
+  impl->Objective(landmarks, state.params.cast<float>(), &weight_columns, &normal, &gradient);
+  std::vector<int> free;
+  size_t k = 0;
+  for (int c : columns) {
+    if (c < rig::kNumPoseParams) {
+      free.push_back(c);
+      continue;
+    }
+    const double w = state.params[c];
+    // Half the gradient of |r|^2 + prior |w|^2.
+    const double g = gradient[k++] + prior * w;
+    const bool stuck = (w <= 0. && g >= 0.) || (w >= 1. && g <= 0.);
+    if (!stuck) free.push_back(c);
+  }
+  return free;
 }
 
 }  // namespace
@@ -415,7 +459,8 @@ TrackResult Tracker::Solve(const TrackTarget& target, const rig::RigidPose& init
     return 0.5 * full_impl.Objective(landmarks, params.cast<float>(), nullptr, nullptr, nullptr);
   };
   summary.initial_cost = objective_at_full(state.params);
-  bool failed = false, converged = true;
+  bool failed = false;
+  double cost_before_last_epoch = summary.initial_cost;
   for (size_t level = 0; level < pyramid.size(); ++level) {
     const bool finest = level + 1 == pyramid.size();
     const int epochs = finest ? options_.epochs : options_.coarse_epochs;
@@ -427,22 +472,28 @@ TrackResult Tracker::Solve(const TrackTarget& target, const rig::RigidPose& init
                              pyramid[level].camera.height / (128. * 128.);
     for (int epoch = 0; epoch < epochs; ++epoch) {
       const bool last_epoch = finest && epoch + 1 == epochs;
+      if (last_epoch) cost_before_last_epoch = objective_at_full(state.params);
       const std::pair<const std::vector<int>*, int> blocks[3] = {
           {&pose_columns, options_.pose_iterations},
           {&jaw_columns, options_.jaw_iterations},
           {&other_columns, options_.expression_iterations}};
-      for (const auto& [columns, iterations] : blocks) {
-        state.columns = *columns;
+      for (int b = 0; b < 3; ++b) {
+        const std::vector<int>* columns = blocks[b].first;
+        const int iterations = blocks[b].second;
+        const double prior = options_.weight_prior * prior_scale;
+        state.columns = iterations > 0 ? FreeColumns(&impl, state, *columns, landmarks, prior)
+                                       : std::vector<int>();
         const BlockOutcome o =
             SolveBlock(&impl, &state, landmarks, iterations, options_, prior_scale);
         summary.iterations += o.iterations;
         failed = failed || o.failed;
-        if (last_epoch && !columns->empty() && iterations > 0) converged = converged && o.converged;
       }
     }
     summary.evaluations += impl.evaluations;
   }
   summary.final_cost = objective_at_full(state.params);
+  const bool converged = cost_before_last_epoch - summary.final_cost <=
+                         options_.convergence_tolerance * cost_before_last_epoch;
   summary.termination = failed ? Termination::kFailure
                                : (converged ? Termination::kConvergence : Termination::kNoConvergence);
   Unpack(state.params.cast<float>(), &result.pose, &result.weights);

@@ -50,11 +50,11 @@ struct TrackerOptions {
   int coarse_epochs = 2;
   // Resolution levels: 1 solves at the target's size only; L > 1 first solves at 1 / 2^(L-1)
   // of it, then doubles the resolution up to the full size.
-  int levels = 2;
+  int levels = 3;
   // Ceres iterations per block solve: the rigid pose, the jaw controls, the rest.
-  int pose_iterations = 5;
-  int jaw_iterations = 4;
-  int expression_iterations = 6;
+  int pose_iterations = 8;
+  int jaw_iterations = 6;
+  int expression_iterations = 10;
   // Solve roll and the uniform scale of P_rigid besides pitch, yaw and translation.
   bool solve_roll = true;
   bool solve_scale = false;
@@ -70,6 +70,9 @@ struct TrackerOptions {
   bool hard_residual = true;
   // Ceres trust-region stopping: relative cost decrease below which a block stops.
   double function_tolerance = 1e-4;
+  // A frame's solve counts as converged when its last epoch lowered the cost by less than
+  // this fraction (the blocks themselves usually stop at their iteration limits).
+  double convergence_tolerance = 0.01;
   // Soft render: half-width of the antialiased band around region borders and silhouettes
   // (pixels, at every level), background colour, visibility tolerance.
   SoftSegmentationOptions soft;
@@ -90,6 +93,8 @@ struct TrackerOptions {
     v("hard_residual", hard_residual,
       "residual of the hard render with the soft render's Jacobian (for aliased targets)");
     v("function_tolerance", function_tolerance, "relative cost decrease that stops a block");
+    v("convergence_tolerance", convergence_tolerance,
+      "a frame converged when its last epoch lowered the cost by less than this fraction");
     v("edge_width_px", soft.edge_width_px,
       "half-width of the soft band around region borders and silhouettes (pixels)");
   }
