@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Data-parallel deepfake training: steps per second at the same global batch on 1 rank and on
-# 2 ranks (one torch thread per rank), and the parallel efficiency (DESIGN.md target: >= 85%
+# 2 ranks (one torch thread per rank), and the parallel efficiency (target: >= 85%
 # at 2 ranks), with 1 rank x 2 threads beside it as the intra-op baseline.
 #
 #   analysis/bench_deepfake.sh [BUILD_DIR] [-- extra `deepfake train` flags]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Segmentation renders per second per core at 128x128 (DESIGN.md target: >= 500), measured
+# Segmentation renders per second per core at 128x128 (target: >= 500), measured
 # on one thread, with the other rasterizer outputs for reference.
 #
 #   analysis/bench_render.sh [BUILD_DIR] [-- extra facecap_bench_render options]

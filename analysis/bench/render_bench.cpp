@@ -1,5 +1,5 @@
 // Rasterizer throughput on one core: segmentation renders per second at 128 x 128 (the
-// DESIGN.md target is >= 500), plus the other G-buffer outputs for reference.
+// target is >= 500), plus the other G-buffer outputs for reference.
 //
 //   facecap_bench_render [--size N] [--subdivisions S] [--seconds T] [--rig rig.h5]
 //
@@ -118,7 +118,7 @@ double BenchmarkRig(const rig::Rig& rig, const std::string& mesh_name,
                      &shaded);
       });
 
-  constexpr double kTargetRendersPerSecond = 500.0;  // DESIGN.md, per core
+  constexpr double kTargetRendersPerSecond = 500.0;  // target, per core
   std::printf("mesh: %s, %d vertices, %d triangles\n", mesh_name.c_str(),
               rig.NumVertices(), static_cast<int>(rig.triangles.rows()));
   std::printf("image: %dx%d, mean covered pixels %.0f\n", options.image_size,

@@ -30,7 +30,8 @@ template <> constexpr H5Type H5TypeOf<double>() { return H5Type::kFloat64; }
 using Shape = std::vector<int64_t>;
 std::string ShapeToString(const Shape& shape);  // "[4000, 128, 128, 3]"
 
-// Root attributes every facecap file carries (DESIGN.md, "HDF5 conventions").
+// What a stage tells H5File::WriteProvenance for the root attributes every facecap file
+// carries (WriteProvenance adds the version, commit, time and configuration hash).
 struct Provenance {
   std::string stage;         // "synth samples"
   std::string command_line;  // the full command line

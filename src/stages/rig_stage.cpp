@@ -1,4 +1,4 @@
-// facecap rig demo | import | export | info: make, bring in, write out and describe rigs.
+// facecap rig demo | import | export: make, bring in and write out rigs.
 #include <filesystem>
 #include <iostream>
 
@@ -144,7 +144,7 @@ void RunRigExport(const StageFlags& flags, AppState* state) {
 }  // namespace
 
 void RegisterRig(CLI::App* app, AppState* state) {
-  CLI::App* rig = app->add_subcommand("rig", "Make, import, export and describe face rigs");
+  CLI::App* rig = app->add_subcommand("rig", "Make, import and export face rigs");
   rig->require_subcommand(1);
 
   AddStage<RigDemoOptions>(
