@@ -1,9 +1,16 @@
 #include "render/landmarks.h"
 
+#include <algorithm>
+#include <cmath>
+#include <string>
+
 #include <gtest/gtest.h>
 
+#include "render/framing.h"
 #include "render/primitives.h"
 #include "render/rasterizer.h"
+#include "rig/demo_head.h"
+#include "rig/evaluate.h"
 #include "util/errors.h"
 
 namespace facecap::render {
@@ -73,6 +80,80 @@ TEST(LandmarksTest, AnOccluderHidesALandmarkAndOutOfImageLandmarksAreFlagged) {
   bad << static_cast<int>(shifted.rows());
   EXPECT_THROW(ProjectLandmarks(shifted, rig.triangles, bad, camera, gbuffer, &landmarks),
                InvalidInputError);
+}
+
+// The demo head's 68 landmarks (iBUG order: 0-16 the jaw line, 17-67 brows, nose, eyes and
+// mouth) at frontal, yaw +-30 and pitch +-10 degrees: a visible landmark lands on a pixel of
+// the head, and an inner one on a pixel of the face, not of the hair, the neck or the
+// background.
+TEST(LandmarksTest, DemoHeadLandmarksProjectInsideTheFace) {
+  rig::DemoHeadOptions head_options;
+  head_options.num_identity_modes = 0;
+  const rig::Rig rig = rig::MakeDemoHead(head_options);
+  ASSERT_EQ(rig.landmarks.size(), 68);
+  auto region_index = [&](const std::string& name) {
+    for (size_t r = 0; r < rig.regions.size(); ++r) {
+      if (rig.regions[r].name == name) return static_cast<int>(r);
+    }
+    ADD_FAILURE() << "the demo head has no region " << name;
+    return -1;
+  };
+  const int hair = region_index("hair"), neck = region_index("neck");
+  constexpr int kFirstInner = 17;
+  const float deg = static_cast<float>(M_PI / 180.0);
+  const Camera camera = Camera::FromFov(256, 256, 20.f);
+  const float distance = FramingDistance(rig, camera, 0.55f);
+
+  struct View {
+    float pitch_deg, yaw_deg;
+    int min_visible_inner;  // of the 51 inner landmarks
+  };
+  for (const View& view : {View{0.f, 0.f, 51}, View{0.f, 30.f, 46}, View{0.f, -30.f, 46},
+                           View{10.f, 0.f, 51}, View{-10.f, 0.f, 51}}) {
+    SCOPED_TRACE("pitch " + std::to_string(view.pitch_deg) + ", yaw " +
+                 std::to_string(view.yaw_deg));
+    const rig::RigidPose pose =
+        FramedPose(rig, distance, view.pitch_deg * deg, view.yaw_deg * deg);
+    rig::Vertices posed;
+    rig::EvaluatePosed(rig, pose, Eigen::VectorXf::Zero(rig.NumShapes()), &posed);
+    GBuffer gbuffer;
+    Rasterize(posed, rig.triangles, camera, &gbuffer);
+    std::vector<Landmark2D> landmarks;
+    ProjectLandmarks(posed, rig.triangles, rig.landmarks, camera, gbuffer, &landmarks);
+    ASSERT_EQ(landmarks.size(), 68u);
+
+    int visible_inner = 0;
+    for (int i = 0; i < 68; ++i) {
+      const Landmark2D& l = landmarks[i];
+      if (!l.visible) continue;
+      const int x = static_cast<int>(std::floor(l.position.x()));
+      const int y = static_cast<int>(std::floor(l.position.y()));
+      ASSERT_TRUE(x >= 0 && x < gbuffer.width && y >= 0 && y < gbuffer.height) << "landmark " << i;
+      if (i < kFirstInner) {
+        // The jaw line is the silhouette at a turned head: a covered pixel within the
+        // visibility search radius (1 pixel) of the landmark.
+        bool covered = false;
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int px = std::clamp(x + dx, 0, gbuffer.width - 1);
+            const int py = std::clamp(y + dy, 0, gbuffer.height - 1);
+            covered = covered || gbuffer.Covered(px, py);
+          }
+        }
+        EXPECT_TRUE(covered) << "jaw landmark " << i << " at " << l.position.transpose();
+        continue;
+      }
+      ++visible_inner;
+      const int triangle = gbuffer.triangle[gbuffer.PixelIndex(x, y)];
+      ASSERT_GE(triangle, 0) << "landmark " << i << " at " << l.position.transpose()
+                             << " is on the background";
+      const int region = rig.triangle_region[triangle];
+      EXPECT_TRUE(region != hair && region != neck)
+          << "landmark " << i << " at " << l.position.transpose() << " is on "
+          << rig.regions[region].name;
+    }
+    EXPECT_GE(visible_inner, view.min_visible_inner);
+  }
 }
 
 }  // namespace
