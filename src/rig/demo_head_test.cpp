@@ -1,6 +1,8 @@
 #include "rig/demo_head.h"
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
 #include <cmath>
 #include <cstring>
 #include <map>
@@ -435,23 +437,126 @@ TEST(DemoHead, SidedShapesMoveTheirSide) {
   EXPECT_LT(pupil_shift("eyeLookDownLeft").y(), 0.f);
 }
 
+// Rasterizes UV triangles into a square texel grid, sampling at texel centres in exact integer
+// arithmetic (UVs snapped to 1/256 texel), and counts per texel the triangles that hold the
+// centre strictly inside and those that hold it inside or on their boundary.
+class UvCoverage {
+ public:
+  explicit UvCoverage(int size)
+      : size_(size), strict_(size * size, 0), closed_(size * size, 0), owner_(size * size, -1) {}
+
+  void Add(const Eigen::Vector2f& a, const Eigen::Vector2f& b, const Eigen::Vector2f& c, int id) {
+    std::array<Eigen::Matrix<int64_t, 2, 1>, 3> p = {Snap(a), Snap(b), Snap(c)};
+    int64_t area = Edge(p[0], p[1], p[2]);
+    if (area == 0) return;  // covers no centre strictly
+    if (area < 0) std::swap(p[1], p[2]);  // a flipped triangle still covers its texels
+    const int64_t lo_x = std::min({p[0].x(), p[1].x(), p[2].x()});
+    const int64_t hi_x = std::max({p[0].x(), p[1].x(), p[2].x()});
+    const int64_t lo_y = std::min({p[0].y(), p[1].y(), p[2].y()});
+    const int64_t hi_y = std::max({p[0].y(), p[1].y(), p[2].y()});
+    const int x0 = std::max<int>(0, static_cast<int>(lo_x / kSub) - 1);
+    const int x1 = std::min<int>(size_ - 1, static_cast<int>(hi_x / kSub) + 1);
+    const int y0 = std::max<int>(0, static_cast<int>(lo_y / kSub) - 1);
+    const int y1 = std::min<int>(size_ - 1, static_cast<int>(hi_y / kSub) + 1);
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        const Eigen::Matrix<int64_t, 2, 1> q(int64_t{x} * kSub + kSub / 2,
+                                             int64_t{y} * kSub + kSub / 2);
+        const int64_t e0 = Edge(p[0], p[1], q), e1 = Edge(p[1], p[2], q), e2 = Edge(p[2], p[0], q);
+        if (e0 < 0 || e1 < 0 || e2 < 0) continue;
+        const int texel = y * size_ + x;
+        ++closed_[texel];
+        if (e0 > 0 && e1 > 0 && e2 > 0) {
+          ++strict_[texel];
+          owner_[texel] = id;
+        }
+      }
+    }
+  }
+  // A centre strictly inside one triangle and inside or on another: the two overlap. A centre
+  // exactly on an edge or a corner that triangles share is not counted.
+  bool Overlaps(int texel) const {
+    return strict_[texel] >= 2 || (strict_[texel] == 1 && closed_[texel] >= 2);
+  }
+  int Owner(int texel) const { return owner_[texel]; }
+  bool Covered(int texel) const { return closed_[texel] > 0; }
+  int NumTexels() const { return size_ * size_; }
+
+ private:
+  static constexpr int64_t kSub = 256;  // subdivisions of a texel
+  Eigen::Matrix<int64_t, 2, 1> Snap(const Eigen::Vector2f& uv) const {
+    return {std::llround(double(uv.x()) * size_ * kSub),
+            std::llround(double(uv.y()) * size_ * kSub)};
+  }
+  static int64_t Edge(const Eigen::Matrix<int64_t, 2, 1>& a, const Eigen::Matrix<int64_t, 2, 1>& b,
+                      const Eigen::Matrix<int64_t, 2, 1>& q) {
+    return (b.x() - a.x()) * (q.y() - a.y()) - (b.y() - a.y()) * (q.x() - a.x());
+  }
+
+  int size_;
+  std::vector<int> strict_, closed_, owner_;
+};
+
+TEST(DemoHead, UvCoverageCountsSharedEdgesOnceAndOverlapsTwice) {
+  // Two triangles of a unit square share the diagonal, which runs through texel centres.
+  UvCoverage square(8);
+  const Eigen::Vector2f a(0.f, 0.f), b(1.f, 0.f), c(1.f, 1.f), d(0.f, 1.f);
+  square.Add(a, b, c, 0);
+  square.Add(a, c, d, 1);
+  for (int t = 0; t < square.NumTexels(); ++t) {
+    EXPECT_TRUE(square.Covered(t)) << t;
+    EXPECT_FALSE(square.Overlaps(t)) << t;
+  }
+  // A third, flipped triangle over part of the square overlaps it.
+  square.Add(Eigen::Vector2f(0.1f, 0.1f), Eigen::Vector2f(0.4f, 0.6f), Eigen::Vector2f(0.6f, 0.1f),
+             2);
+  int overlapping = 0;
+  for (int t = 0; t < square.NumTexels(); ++t) overlapping += square.Overlaps(t);
+  EXPECT_GT(overlapping, 0);
+}
+
 TEST(DemoHead, FaceUvsDoNotOverlap) {
+  // The head's chart (skin, hair, neck, nose, brows, lids, lips: the grid and its poles) maps
+  // every triangle to its own part of the texture. The eyeballs are front projections (their
+  // backs fall onto their fronts) and the pockets stretch from the opening's loop into their
+  // boxes, so they are not part of it.
   const Rig& rig = Head();
   const std::set<int> not_skin = {RegionByName(rig, "sclera"), RegionByName(rig, "iris"),
                                   RegionByName(rig, "pupil"), RegionByName(rig, "mouth_interior")};
-  int checked = 0;
+  constexpr int kTexels = 512;
+  UvCoverage coverage(kTexels);
+  int front = 0;
   for (int f = 0; f < rig.triangles.rows(); ++f) {
     if (not_skin.count(rig.triangle_region(f))) continue;
-    const Eigen::Vector3f centre = (rig.neutral.row(rig.triangles(f, 0)) + rig.neutral.row(rig.triangles(f, 1)) +
+    const Eigen::Vector2f a = rig.uvs.row(rig.uv_triangles(f, 0));
+    const Eigen::Vector2f b = rig.uvs.row(rig.uv_triangles(f, 1));
+    const Eigen::Vector2f c = rig.uvs.row(rig.uv_triangles(f, 2));
+    coverage.Add(a, b, c, f);
+    const Eigen::Vector3f centre = (rig.neutral.row(rig.triangles(f, 0)) +
+                                    rig.neutral.row(rig.triangles(f, 1)) +
                                     rig.neutral.row(rig.triangles(f, 2))).transpose() / 3.f;
     if (centre.z() < 1.f) continue;  // the face front, away from the seam at the back
-    const Eigen::Vector2f a = rig.uvs.row(rig.uv_triangles(f, 0)), b = rig.uvs.row(rig.uv_triangles(f, 1)),
-                          c = rig.uvs.row(rig.uv_triangles(f, 2));
+    // Front triangles keep the orientation of the chart (not flipped).
     const float area = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
     ASSERT_GT(area, 0.f) << "triangle " << f;
-    ++checked;
+    ++front;
   }
-  EXPECT_GT(checked, 4000);
+  EXPECT_GT(front, 4000);
+  int covered = 0, overlapping = 0;
+  for (int t = 0; t < coverage.NumTexels(); ++t) {
+    covered += coverage.Covered(t);
+    if (coverage.Overlaps(t)) {
+      if (overlapping++ < 10) {
+        ADD_FAILURE() << "texel (" << t % kTexels << ", " << t / kTexels
+                      << ") is covered by more than one triangle, one of them "
+                      << coverage.Owner(t);
+      }
+    }
+  }
+  EXPECT_EQ(overlapping, 0);
+  // The chart spans u in [0, 1] and v in [0.22, 0.98]: nearly all of that band is covered
+  // (the eye and mouth openings are holes).
+  EXPECT_GT(covered, 0.9 * kTexels * kTexels * 0.76);
 }
 
 TEST(DemoHead, IdentityModesAreSmoothAndPlausible) {
