@@ -29,10 +29,15 @@ void Check(int rc, const char* what) {
 constexpr int64_t kMaxChunk = INT_MAX / 2;
 
 template <typename T>
-void SumReduceChunked(int handle, T* data, int64_t count, MPI_Datatype type) {
+void SumReduceChunked(int handle, T* data, int64_t count, int64_t max_chunk,
+                      MPI_Datatype type) {
+  if (max_chunk < 1 || max_chunk > INT_MAX) {
+    throw Error("SumReduce: chunk of " + std::to_string(max_chunk) +
+                " elements, expected 1 to INT_MAX");
+  }
   if (handle < 0) return;
-  for (int64_t offset = 0; offset < count; offset += kMaxChunk) {
-    const int n = static_cast<int>(std::min(kMaxChunk, count - offset));
+  for (int64_t offset = 0; offset < count; offset += max_chunk) {
+    const int n = static_cast<int>(std::min(max_chunk, count - offset));
     Check(MPI_Allreduce(MPI_IN_PLACE, data + offset, n, type, MPI_SUM, ToMpi(handle)),
           "SumReduce");
   }
@@ -95,14 +100,14 @@ void Comm::Barrier() const {
   if (handle_ >= 0) Check(MPI_Barrier(ToMpi(handle_)), "Barrier");
 }
 
-void Comm::SumReduce(float* data, int64_t count) const {
-  SumReduceChunked(handle_, data, count, MPI_FLOAT);
+void Comm::SumReduce(float* data, int64_t count, int64_t max_chunk) const {
+  SumReduceChunked(handle_, data, count, max_chunk, MPI_FLOAT);
 }
-void Comm::SumReduce(double* data, int64_t count) const {
-  SumReduceChunked(handle_, data, count, MPI_DOUBLE);
+void Comm::SumReduce(double* data, int64_t count, int64_t max_chunk) const {
+  SumReduceChunked(handle_, data, count, max_chunk, MPI_DOUBLE);
 }
-void Comm::SumReduce(int64_t* data, int64_t count) const {
-  SumReduceChunked(handle_, data, count, MPI_INT64_T);
+void Comm::SumReduce(int64_t* data, int64_t count, int64_t max_chunk) const {
+  SumReduceChunked(handle_, data, count, max_chunk, MPI_INT64_T);
 }
 
 double Comm::Max(double value) const {

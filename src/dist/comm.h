@@ -6,6 +6,7 @@
 #ifndef FACECAP_DIST_COMM_H_
 #define FACECAP_DIST_COMM_H_
 
+#include <climits>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -32,11 +33,16 @@ class Comm {
   bool IsMainRank() const { return rank_ == 0; }
   bool IsSingle() const { return handle_ < 0; }
 
+  // The most elements one MPI call of SumReduce passes: MPI counts are int, so larger
+  // buffers (gradients of big networks) go in several calls.
+  static constexpr int64_t kMaxReduceChunk = INT_MAX / 2;
+
   void Barrier() const;
-  // In-place sum over ranks (allreduce), split into chunks below INT_MAX elements.
-  void SumReduce(float* data, int64_t count) const;
-  void SumReduce(double* data, int64_t count) const;
-  void SumReduce(int64_t* data, int64_t count) const;
+  // In-place sum over ranks (allreduce) of data[0, count), in calls of at most `max_chunk`
+  // elements (in [1, INT_MAX]; tests pass a small one to exercise the split).
+  void SumReduce(float* data, int64_t count, int64_t max_chunk = kMaxReduceChunk) const;
+  void SumReduce(double* data, int64_t count, int64_t max_chunk = kMaxReduceChunk) const;
+  void SumReduce(int64_t* data, int64_t count, int64_t max_chunk = kMaxReduceChunk) const;
   double Max(double value) const;
   double Min(double value) const;
   bool AnyTrue(bool value) const;

@@ -31,6 +31,46 @@ TEST(CommMpi, SumReduceAddsEveryRanksBuffer) {
   for (size_t i = 0; i < f.size(); ++i) ASSERT_FLOAT_EQ(f[i], float(n * (n - 1) / 2 * i));
 }
 
+TEST(CommMpi, SumReduceInSmallChunksAddsEveryElementAndNoMore) {
+  // The split that buffers above INT_MAX elements take, with chunks of 7 elements: 1001 values
+  // are 143 whole chunks, 1000 end in a partial one. The buffer is longer than `count`, and
+  // what lies past `count` must stay as it was.
+  const Comm comm = World();
+  const int n = comm.size();
+  for (const int64_t count : {int64_t{1001}, int64_t{1000}, int64_t{3}}) {
+    std::vector<double> d(count + 5);
+    std::vector<float> f(count + 5);
+    std::vector<int64_t> k(count + 5);
+    for (size_t i = 0; i < d.size(); ++i) {
+      d[i] = (comm.rank() + 1) * 0.25 + static_cast<double>(i);
+      f[i] = static_cast<float>(comm.rank() + 1);
+      k[i] = (int64_t{1} << 40) * (comm.rank() + 1) + static_cast<int64_t>(i);
+    }
+    comm.SumReduce(d.data(), count, 7);
+    comm.SumReduce(f.data(), count, 7);
+    comm.SumReduce(k.data(), count, 7);
+    const int64_t ranks_sum = int64_t{n} * (n + 1) / 2;  // 1 + 2 + ... + n
+    for (int64_t i = 0; i < count; ++i) {
+      ASSERT_DOUBLE_EQ(d[i], 0.25 * ranks_sum + n * static_cast<double>(i)) << "element " << i;
+      ASSERT_FLOAT_EQ(f[i], static_cast<float>(ranks_sum)) << "element " << i;
+      ASSERT_EQ(k[i], (int64_t{1} << 40) * ranks_sum + n * i) << "element " << i;
+    }
+    for (int64_t i = count; i < count + 5; ++i) {
+      ASSERT_DOUBLE_EQ(d[i], (comm.rank() + 1) * 0.25 + static_cast<double>(i)) << "past the end";
+      ASSERT_FLOAT_EQ(f[i], static_cast<float>(comm.rank() + 1)) << "past the end";
+      ASSERT_EQ(k[i], (int64_t{1} << 40) * (comm.rank() + 1) + i) << "past the end";
+    }
+  }
+  // A chunk of one element, and a chunk larger than the buffer, give the same sums.
+  std::vector<double> one(11, comm.rank() + 1.0), big(11, comm.rank() + 1.0);
+  comm.SumReduce(one.data(), 11, 1);
+  comm.SumReduce(big.data(), 11, 1 << 20);
+  for (int i = 0; i < 11; ++i) {
+    EXPECT_DOUBLE_EQ(one[i], n * (n + 1) / 2.0);
+    EXPECT_DOUBLE_EQ(big[i], n * (n + 1) / 2.0);
+  }
+}
+
 TEST(CommMpi, BroadcastAndGatherCarryBytesInRankOrder) {
   const Comm comm = World();
   std::string text = comm.IsMainRank() ? "weights from rank 0" : "";
