@@ -1,6 +1,7 @@
 #include "io/mesh_io.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstdarg>
 #include <cmath>
@@ -735,10 +736,14 @@ rig::Rig ImportRigFromGltf(const std::string& path) {
   return rig;
 }
 
-void ExportRigToGltf(const rig::Rig& rig, const std::string& path,
-                     const std::vector<std::vector<float>>* animation_weights, float fps) {
-  CheckRigForExport(rig, path);
-  const int num_shapes = rig.NumShapes();
+namespace {
+
+// glTF of the rig's triangles and texture coordinates at vertex `positions` (cm, #V x 3), with
+// one morph target per shape when `morph_targets`, and the animation when given.
+void WriteGltf(const rig::Rig& rig, const rig::Vertices& positions, bool morph_targets,
+               const std::vector<std::vector<float>>* animation_weights, float fps,
+               const std::string& path) {
+  const int num_shapes = morph_targets ? rig.NumShapes() : 0;
   if (animation_weights) {
     if (!(fps > 0.f) || !std::isfinite(fps)) {
       throw InvalidInputError("ExportRigToGltf(" + path + "): fps must be positive, got " +
@@ -794,7 +799,9 @@ void ExportRigToGltf(const rig::Rig& rig, const std::string& path,
   GltfBufferBuilder buffer;
   std::vector<float> data(3 * num_file_vertices);
   for (int i = 0; i < num_file_vertices; ++i) {
-    for (int c = 0; c < 3; ++c) data[3 * i + c] = rig.neutral(source_vertex[i], c) / kCentimetresPerMetre;
+    for (int c = 0; c < 3; ++c) {
+      data[3 * i + c] = positions(source_vertex[i], c) / kCentimetresPerMetre;
+    }
   }
   const int position_accessor = buffer.AddFloats(data, 3, true, 34962);
   int uv_accessor = -1;
@@ -809,7 +816,8 @@ void ExportRigToGltf(const rig::Rig& rig, const std::string& path,
   }
   const int index_accessor = buffer.AddIndices(indices);
   // Morph targets: the full effect S(e_i) - N of each shape, jaw skinning baked in.
-  const std::vector<rig::Vertices> shapes = FullShapes(rig);
+  const std::vector<rig::Vertices> shapes =
+      morph_targets ? FullShapes(rig) : std::vector<rig::Vertices>();
   std::vector<int> target_accessors;
   for (int s = 0; s < num_shapes; ++s) {
     for (int i = 0; i < num_file_vertices; ++i) {
@@ -882,6 +890,38 @@ void ExportRigToGltf(const rig::Rig& rig, const std::string& path,
     json += ",\"buffers\":[{\"byteLength\":" + std::to_string(bytes.size()) +
             ",\"uri\":\"data:application/octet-stream;base64," + Base64(bytes) + "\"}]}";
     WriteFileAtomically(path, json);
+  }
+}
+
+}  // namespace
+
+void ExportRigToGltf(const rig::Rig& rig, const std::string& path,
+                     const std::vector<std::vector<float>>* animation_weights, float fps) {
+  CheckRigForExport(rig, path);
+  WriteGltf(rig, rig.neutral, true, animation_weights, fps, path);
+}
+
+void ExportPosedMesh(const rig::Rig& rig, const rig::Vertices& posed, const std::string& path) {
+  CheckRigForExport(rig, path);
+  if (posed.rows() != rig.NumVertices()) {
+    throw InvalidInputError("ExportPosedMesh(" + path + "): " + std::to_string(posed.rows()) +
+                            " posed vertices for a rig of " + std::to_string(rig.NumVertices()));
+  }
+  if (!posed.allFinite()) {
+    throw InvalidInputError("ExportPosedMesh(" + path + "): non-finite posed vertex");
+  }
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (extension == ".obj") {
+    const bool has_uvs = rig.uvs.rows() > 0;
+    ExportMeshObj(posed, rig.triangles, has_uvs ? &rig.uvs : nullptr,
+                  has_uvs ? &rig.uv_triangles : nullptr, path);
+  } else if (extension == ".glb" || extension == ".gltf") {
+    WriteGltf(rig, posed, false, nullptr, 30.f, path);
+  } else {
+    throw InvalidInputError("ExportPosedMesh(" + path +
+                            "): the extension must be .obj, .glb or .gltf");
   }
 }
 

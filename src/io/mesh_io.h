@@ -76,6 +76,14 @@ void ExportRigToGltf(const rig::Rig& rig, const std::string& path,
                      const std::vector<std::vector<float>>* animation_weights = nullptr,
                      float fps = 30.f);
 
+// Writes one pose of a rig as a static mesh: `posed` (#V x 3, cm, e.g. from RigEvaluator)
+// with the rig's triangles and texture coordinates. The path's extension picks the format:
+// .obj (as ExportMeshObj, centimetres), .glb or .gltf (as ExportRigToGltf, metres, without
+// morph targets). Triangles that the pose collapses (closed eyelids) are written as they are.
+// InvalidInputError for another extension, a vertex count other than the rig's, or non-finite
+// positions.
+void ExportPosedMesh(const rig::Rig& rig, const rig::Vertices& posed, const std::string& path);
+
 }  // namespace facecap::io
 
 #endif  // FACECAP_IO_MESH_IO_H_

@@ -280,5 +280,72 @@ TEST(GltfTest, MissingOrBrokenFileRejected) {
             std::string::npos);
 }
 
+// One pose of the cylinder rig: the jaw shape at 0.8, rotated and moved.
+Vertices PosedCylinder(const Rig& rig) {
+  Eigen::VectorXf w = Eigen::VectorXf::Zero(rig.NumShapes());
+  w[1] = 0.8f;
+  rig::RigidPose pose;
+  pose.yaw = 0.4f;
+  pose.pitch = -0.2f;
+  pose.translation = Eigen::Vector3f(1.f, 2.f, -3.f);
+  Vertices posed;
+  rig::EvaluatePosed(rig, pose, w, &posed);
+  return posed;
+}
+
+TEST(PosedMeshTest, ObjHoldsThePosedVerticesWithTheRigsTrianglesAndUvs) {
+  testing::TempDir tmp;
+  const Rig rig = CylinderRig(true);
+  const Vertices posed = PosedCylinder(rig);
+  ExportPosedMesh(rig, posed, tmp.File("posed.OBJ"));
+  const Mesh mesh = ReadMeshObj(tmp.File("posed.OBJ"));
+  ASSERT_EQ(mesh.vertices.rows(), posed.rows());
+  EXPECT_LT((mesh.vertices - posed).cwiseAbs().maxCoeff(), 1e-5f);
+  EXPECT_EQ(mesh.triangles, rig.triangles);
+  EXPECT_EQ(mesh.uv_triangles, rig.uv_triangles);
+  EXPECT_LT((mesh.uvs - rig.uvs).cwiseAbs().maxCoeff(), 1e-6f);
+}
+
+TEST(PosedMeshTest, GltfHoldsThePosedVerticesWithoutMorphTargets) {
+  testing::TempDir tmp;
+  const Rig rig = CylinderRig(true);
+  const Vertices posed = PosedCylinder(rig);
+  for (const char* name : {"posed.glb", "posed.gltf"}) {
+    ExportPosedMesh(rig, posed, tmp.File(name));
+    const Rig back = ImportRigFromGltf(tmp.File(name));
+    EXPECT_EQ(back.NumShapes(), 0) << name;
+    ASSERT_EQ(back.NumVertices(), rig.NumVertices()) << name;  // seams welded back
+    EXPECT_LT((back.neutral - posed).cwiseAbs().maxCoeff(), 1e-4f) << name;
+    EXPECT_EQ(back.triangles, rig.triangles) << name;
+  }
+  std::ifstream in(tmp.File("posed.gltf"));
+  const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(json.find("\"targets\""), std::string::npos);
+}
+
+TEST(PosedMeshTest, CollapsedTrianglesAreWritten) {
+  // A closed eyelid collapses triangles; the pose is still a valid mesh to write.
+  testing::TempDir tmp;
+  const Rig rig = CylinderRig(false);
+  Vertices flat = rig.neutral;
+  flat.col(1).setZero();  // every triangle between two rows now has zero area
+  EXPECT_NO_THROW(ExportPosedMesh(rig, flat, tmp.File("flat.glb")));
+  EXPECT_NO_THROW(ExportPosedMesh(rig, flat, tmp.File("flat.obj")));
+}
+
+TEST(PosedMeshTest, BadExtensionVertexCountOrValuesRejected) {
+  testing::TempDir tmp;
+  const Rig rig = CylinderRig(false);
+  EXPECT_THROW(ExportPosedMesh(rig, rig.neutral, tmp.File("posed.stl")), InvalidInputError);
+  EXPECT_THROW(ExportPosedMesh(rig, rig.neutral, tmp.File("posed")), InvalidInputError);
+  EXPECT_THROW(ExportPosedMesh(rig, rig.neutral.topRows(3), tmp.File("posed.obj")),
+               InvalidInputError);
+  Vertices broken = rig.neutral;
+  broken(2, 1) = std::nanf("");
+  EXPECT_THROW(ExportPosedMesh(rig, broken, tmp.File("posed.glb")), InvalidInputError);
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("posed.obj")));
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("posed.glb")));
+}
+
 }  // namespace
 }  // namespace facecap::io
