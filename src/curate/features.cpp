@@ -14,9 +14,13 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 
 // Depth (towards the camera) of the 13 stable points relative to the inner eye corners, in
-// mean-face units (~0.12 m): an average adult nose and eye-corner profile.
-//                                 27    28    29    30    31    32    33    34    35    36     39   42   45
-constexpr double kStableDepth[] = {0.08, 0.12, 0.18, 0.25, 0.07, 0.11, 0.14, 0.11, 0.07, -0.12, 0.0, 0.0, -0.12};
+// mean-face units (~0.12 m): calibrated (analysis/calibrate_pose_template.py) so that f_pose
+// recovers known pitch and yaw (-20..20, -60..60 degrees) from the demo rig's own landmark
+// vertices, posed by rig::RigidPose and projected by a framed 20-degree camera, with the x, y
+// of dlib's mean face kept: mean |error| 1.3 (pitch) and 1.6 (yaw) degrees, bias -0.2 (pitch),
+// against 4.1, 2.8 and -2.3 with the earlier hand-set profile. Left-right symmetric.
+//                                 27     28     29     30     31     32     33     34     35     36      39   42   45
+constexpr double kStableDepth[] = {0.172, 0.165, 0.202, 0.285, 0.145, 0.189, 0.199, 0.189, 0.145, -0.156, 0.0, 0.0, -0.156};
 
 using Points = Eigen::Matrix<double, Eigen::Dynamic, 2>;
 
@@ -56,12 +60,14 @@ const Eigen::Matrix<double, 13, 3, Eigen::RowMajor>& PoseTemplate3D() {
 
 Eigen::MatrixX2d ProjectPoseTemplate(double pitch_deg, double yaw_deg) {
   const double p = pitch_deg * kDeg, y = yaw_deg * kDeg;
-  // Yaw about the vertical axis (z towards +x for yaw > 0), then pitch about x (z towards -y,
-  // i.e. up in the image, for pitch > 0).
+  // The rotation of rig::RigidPose, R = Ry(yaw) * Rx(pitch) (roll is in-plane and left to the
+  // 2D alignment), written in the template's axes (x right, y down, z towards the camera):
+  // the rig's y is up, so Rx's off-diagonal signs flip. Pitch > 0 takes z towards +y (the nose
+  // moves down in the image), yaw > 0 takes z towards +x (the nose moves right).
   Eigen::Matrix3d ry, rx;
   ry << std::cos(y), 0, std::sin(y), 0, 1, 0, -std::sin(y), 0, std::cos(y);
-  rx << 1, 0, 0, 0, std::cos(p), -std::sin(p), 0, std::sin(p), std::cos(p);
-  const Eigen::Matrix3d r = rx * ry;
+  rx << 1, 0, 0, 0, std::cos(p), std::sin(p), 0, -std::sin(p), std::cos(p);
+  const Eigen::Matrix3d r = ry * rx;
   const Eigen::Matrix<double, 13, 3, Eigen::RowMajor>& t = PoseTemplate3D();
   Eigen::MatrixX2d out(13, 2);
   for (int i = 0; i < 13; ++i) {

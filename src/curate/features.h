@@ -22,8 +22,12 @@ namespace facecap::curate {
 // are fitted so that its orthographic projection, after the best 2D similarity, matches the
 // aligned points in least squares. Each similarity is the SVD solution (Umeyama).
 //
-// Angles in degrees. Pitch > 0: the face tilts up (the nose moves up in the image). Yaw > 0:
-// the face turns to the subject's left (the nose moves right in the image).
+// Angles in degrees, in the project's pose convention (rig::RigidPose, the /frames/pose of a
+// wild clip, `facecap render --pitch-deg/--yaw-deg`): pitch > 0 tilts the face down (the nose
+// moves down in the image), yaw > 0 turns the face to the subject's left (the nose moves right
+// in the image). The template is rotated by R = Ry(yaw) Rx(pitch) as rig::RigidPose rotates a
+// head; roll is in-plane and removed by the 2D alignment. Its depths are calibrated on the
+// demo rig's landmark vertices (features.cpp, kStableDepth).
 struct PoseEstimate {
   double pitch_deg = 0.0;
   double yaw_deg = 0.0;
@@ -35,8 +39,8 @@ PoseEstimate EstimatePose(const face::Landmarks& landmarks);
 // units of face::MeanFaceShape (about 0.12 m per unit).
 const Eigen::Matrix<double, 13, 3, Eigen::RowMajor>& PoseTemplate3D();
 
-// Orthographic projection (13 by 2) of the template rotated by pitch then yaw, in degrees:
-// exposed for tests that make landmarks of a known pose.
+// Orthographic projection (13 by 2, y down) of the template rotated by R = Ry(yaw) Rx(pitch),
+// angles in degrees: exposed for tests that make landmarks of a known pose.
 Eigen::MatrixX2d ProjectPoseTemplate(double pitch_deg, double yaw_deg);
 
 constexpr int kPoseDims = 2;

@@ -49,13 +49,14 @@ TEST(PoseFeatureTest, RecoversPitchAndYawUnderAnySimilarity) {
 }
 
 TEST(PoseFeatureTest, SignConventions) {
-  // Yaw > 0 moves the nose tip (30) right relative to the eye corners; pitch > 0 moves it up.
+  // As rig::RigidPose: yaw > 0 moves the nose tip (30) right relative to the eye corners;
+  // pitch > 0 tilts the face down, the nose tip moves down (image y grows).
   const Eigen::MatrixX2d front = ProjectPoseTemplate(0, 0);
   const Eigen::MatrixX2d right = ProjectPoseTemplate(0, 30);
-  const Eigen::MatrixX2d up = ProjectPoseTemplate(30, 0);
+  const Eigen::MatrixX2d down = ProjectPoseTemplate(30, 0);
   const int tip = 3;  // landmark 30 in ExpressionStableLandmarks
   EXPECT_GT(right(tip, 0), front(tip, 0));
-  EXPECT_LT(up(tip, 1), front(tip, 1));
+  EXPECT_GT(down(tip, 1), front(tip, 1));
 }
 
 TEST(ExpressionFeatureTest, InvariantToSimilarityAndSensitiveToTheMouth) {
