@@ -1,6 +1,9 @@
 #include "io/config.h"
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
+#include <iterator>
 #include <sstream>
 
 #include <toml++/toml.h>
@@ -54,11 +57,14 @@ std::string Where(const std::string& origin, const std::string& table, const std
 Config::Config() : impl_(std::make_unique<Impl>()) {}
 Config::~Config() = default;
 Config::Config(const Config& other)
-    : impl_(std::make_unique<Impl>(*other.impl_)), origin_(other.origin_) {}
+    : impl_(std::make_unique<Impl>(*other.impl_)),
+      origin_(other.origin_),
+      value_origins_(other.value_origins_) {}
 Config& Config::operator=(const Config& other) {
   if (this != &other) {
     impl_ = std::make_unique<Impl>(*other.impl_);
     origin_ = other.origin_;
+    value_origins_ = other.value_origins_;
   }
   return *this;
 }
@@ -111,6 +117,40 @@ std::vector<std::string> Config::Keys(const std::string& table) const {
   return keys;
 }
 
+std::string Config::OriginOf(const std::string& table, const std::string& key) const {
+  const auto it = value_origins_.find({table, key});
+  return it == value_origins_.end() ? origin_ : it->second;
+}
+
+std::string Config::OriginsOf(const std::string& table) const {
+  std::vector<std::string> origins;
+  for (const std::string& key : Keys(table)) {
+    const std::string origin = OriginOf(table, key);
+    if (std::find(origins.begin(), origins.end(), origin) == origins.end()) {
+      origins.push_back(origin);
+    }
+  }
+  if (origins.empty()) return origin_;
+  std::string joined;
+  for (const auto& o : origins) joined += (joined.empty() ? "" : ", ") + o;
+  return joined;
+}
+
+std::string Config::OriginOfCheck(const std::string& table, const std::string& why) const {
+  const auto in_key = [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+  };
+  size_t end = 0;
+  while (end < why.size() && in_key(why[end])) ++end;
+  const std::string key = why.substr(0, end);
+  if (!key.empty() && Has(table, key)) return OriginOf(table, key);
+  return OriginsOf(table);
+}
+
+void Config::ForgetOrigin(const std::string& table, const std::string& key) {
+  value_origins_.erase({table, key});
+}
+
 std::vector<std::string> Config::Tables(const std::string& table) const {
   std::vector<std::string> names;
   const toml::table* t = FindTable(impl_->root, table);
@@ -153,35 +193,41 @@ int64_t IntegerOf(const toml::node& n, const std::string& origin, const std::str
 }  // namespace
 
 void Config::Get(const std::string& table, const std::string& key, bool* value) const {
-  const toml::node& n = Node(impl_->root, origin_, table, key);
+  const std::string origin = OriginOf(table, key);
+  const toml::node& n = Node(impl_->root, origin, table, key);
   if (auto v = n.value_exact<bool>()) *value = *v;
-  else TypeError(origin_, table, key, "true or false", n);
+  else TypeError(origin, table, key, "true or false", n);
 }
 
 void Config::Get(const std::string& table, const std::string& key, int64_t* value) const {
-  *value = IntegerOf(Node(impl_->root, origin_, table, key), origin_, table, key);
+  const std::string origin = OriginOf(table, key);
+  *value = IntegerOf(Node(impl_->root, origin, table, key), origin, table, key);
 }
 
 void Config::Get(const std::string& table, const std::string& key, int* value) const {
-  const int64_t v = IntegerOf(Node(impl_->root, origin_, table, key), origin_, table, key);
+  const std::string origin = OriginOf(table, key);
+  const int64_t v = IntegerOf(Node(impl_->root, origin, table, key), origin, table, key);
   if (v < INT32_MIN || v > INT32_MAX) {
-    throw InvalidInputError(Where(origin_, table, key) + " is out of the 32-bit integer range");
+    throw InvalidInputError(Where(origin, table, key) + " is out of the 32-bit integer range");
   }
   *value = static_cast<int>(v);
 }
 
 void Config::Get(const std::string& table, const std::string& key, double* value) const {
-  *value = NumberOf(Node(impl_->root, origin_, table, key), origin_, table, key);
+  const std::string origin = OriginOf(table, key);
+  *value = NumberOf(Node(impl_->root, origin, table, key), origin, table, key);
 }
 
 void Config::Get(const std::string& table, const std::string& key, float* value) const {
-  *value = static_cast<float>(NumberOf(Node(impl_->root, origin_, table, key), origin_, table, key));
+  const std::string origin = OriginOf(table, key);
+  *value = static_cast<float>(NumberOf(Node(impl_->root, origin, table, key), origin, table, key));
 }
 
 void Config::Get(const std::string& table, const std::string& key, std::string* value) const {
-  const toml::node& n = Node(impl_->root, origin_, table, key);
+  const std::string origin = OriginOf(table, key);
+  const toml::node& n = Node(impl_->root, origin, table, key);
   if (auto v = n.value_exact<std::string>()) *value = *v;
-  else TypeError(origin_, table, key, "a string", n);
+  else TypeError(origin, table, key, "a string", n);
 }
 
 namespace {
@@ -198,69 +244,93 @@ void GetArray(const toml::node& n, const std::string& origin, const std::string&
 }  // namespace
 
 void Config::Get(const std::string& table, const std::string& key, std::vector<int>* value) const {
-  GetArray(Node(impl_->root, origin_, table, key), origin_, table, key, value,
-           [&](const toml::node& e) { return static_cast<int>(IntegerOf(e, origin_, table, key)); });
+  const std::string origin = OriginOf(table, key);
+  GetArray(Node(impl_->root, origin, table, key), origin, table, key, value,
+           [&](const toml::node& e) { return static_cast<int>(IntegerOf(e, origin, table, key)); });
 }
 
 void Config::Get(const std::string& table, const std::string& key,
                  std::vector<float>* value) const {
-  GetArray(Node(impl_->root, origin_, table, key), origin_, table, key, value,
-           [&](const toml::node& e) { return static_cast<float>(NumberOf(e, origin_, table, key)); });
+  const std::string origin = OriginOf(table, key);
+  GetArray(Node(impl_->root, origin, table, key), origin, table, key, value,
+           [&](const toml::node& e) {
+             return static_cast<float>(NumberOf(e, origin, table, key));
+           });
 }
 
 void Config::Get(const std::string& table, const std::string& key,
                  std::vector<std::string>* value) const {
-  GetArray(Node(impl_->root, origin_, table, key), origin_, table, key, value,
+  const std::string origin = OriginOf(table, key);
+  GetArray(Node(impl_->root, origin, table, key), origin, table, key, value,
            [&](const toml::node& e) {
              if (auto v = e.value_exact<std::string>()) return *v;
-             TypeError(origin_, table, key, "an array of strings", e);
+             TypeError(origin, table, key, "an array of strings", e);
            });
 }
 
 void Config::Set(const std::string& table, const std::string& key, bool value) {
+  ForgetOrigin(table, key);
   EnsureTable(impl_->root, table)->insert_or_assign(key, value);
 }
 void Config::Set(const std::string& table, const std::string& key, int value) {
+  ForgetOrigin(table, key);
   EnsureTable(impl_->root, table)->insert_or_assign(key, static_cast<int64_t>(value));
 }
 void Config::Set(const std::string& table, const std::string& key, int64_t value) {
+  ForgetOrigin(table, key);
   EnsureTable(impl_->root, table)->insert_or_assign(key, value);
 }
 void Config::Set(const std::string& table, const std::string& key, float value) {
+  ForgetOrigin(table, key);
   EnsureTable(impl_->root, table)->insert_or_assign(key, static_cast<double>(value));
 }
 void Config::Set(const std::string& table, const std::string& key, double value) {
+  ForgetOrigin(table, key);
   EnsureTable(impl_->root, table)->insert_or_assign(key, value);
 }
 void Config::Set(const std::string& table, const std::string& key, const std::string& value) {
+  ForgetOrigin(table, key);
   EnsureTable(impl_->root, table)->insert_or_assign(key, value);
 }
 void Config::Set(const std::string& table, const std::string& key, const std::vector<int>& value) {
+  ForgetOrigin(table, key);
   toml::array a;
   for (int v : value) a.push_back(static_cast<int64_t>(v));
   EnsureTable(impl_->root, table)->insert_or_assign(key, std::move(a));
 }
 void Config::Set(const std::string& table, const std::string& key,
                  const std::vector<float>& value) {
+  ForgetOrigin(table, key);
   toml::array a;
   for (float v : value) a.push_back(static_cast<double>(v));
   EnsureTable(impl_->root, table)->insert_or_assign(key, std::move(a));
 }
 void Config::Set(const std::string& table, const std::string& key,
                  const std::vector<std::string>& value) {
+  ForgetOrigin(table, key);
   toml::array a;
   for (const auto& v : value) a.push_back(v);
   EnsureTable(impl_->root, table)->insert_or_assign(key, std::move(a));
 }
 
 void Config::SetFromText(const std::string& table, const std::string& key,
-                         const std::string& text) {
+                         const std::string& text, const std::string& origin) {
   toml::table* t = EnsureTable(impl_->root, table);
+  bool literal = false;
   try {
+    // Exactly one literal: "3\nother = 4" parses, but is not one value.
     toml::table parsed = toml::parse("value = " + text);
-    t->insert_or_assign(key, *parsed.get("value"));
+    if (parsed.size() == 1) {
+      t->insert_or_assign(key, *parsed.get("value"));
+      literal = true;
+    }
   } catch (const toml::parse_error&) {
-    t->insert_or_assign(key, text);
+  }
+  if (!literal) t->insert_or_assign(key, text);
+  if (origin.empty()) {
+    ForgetOrigin(table, key);
+  } else {
+    value_origins_[{table, key}] = origin;
   }
 }
 
@@ -274,12 +344,72 @@ void Config::SetAssignment(const std::string& assignment) {
   if (dot == std::string::npos) {
     throw InvalidInputError("--set " + assignment + ": expected table.key=value");
   }
-  SetFromText(path.substr(0, dot), path.substr(dot + 1), assignment.substr(eq + 1));
+  SetFromText(path.substr(0, dot), path.substr(dot + 1), assignment.substr(eq + 1), "--set");
+}
+
+namespace {
+
+// Whether `table` is the root or holds a valid table: [rig] of [rig.demo].
+bool IsParentOfValid(const std::string& table, const std::vector<std::string>& valid) {
+  if (table.empty()) return true;
+  for (const auto& v : valid) {
+    if (v.compare(0, table.size() + 1, table + ".") == 0) return true;
+  }
+  return false;
+}
+
+// The first value under `t` (depth first), as (table, key); empty when there is none.
+std::pair<std::string, std::string> FirstValue(const toml::table& t, const std::string& path) {
+  for (auto&& [k, v] : t) {
+    if (!v.is_table()) return {path, std::string(k.str())};
+  }
+  for (auto&& [k, v] : t) {
+    const std::string sub = path.empty() ? std::string(k.str()) : path + "." + std::string(k.str());
+    auto found = FirstValue(*v.as_table(), sub);
+    if (!found.second.empty()) return found;
+  }
+  return {};
+}
+
+}  // namespace
+
+void Config::CheckTables(const std::vector<std::string>& valid) const {
+  std::string list;
+  for (const auto& v : valid) list += (list.empty() ? "" : ", ") + v;
+  const auto check = [&](const auto& self, const toml::table& t, const std::string& path) -> void {
+    const bool is_valid = std::find(valid.begin(), valid.end(), path) != valid.end();
+    if (!is_valid && !IsParentOfValid(path, valid)) {
+      const auto [table, key] = FirstValue(t, path);
+      throw InvalidInputError((key.empty() ? origin_ : OriginOf(table, key)) +
+                              ": unknown table [" + path + "]; valid tables: " + list);
+    }
+    for (auto&& [k, v] : t) {
+      const std::string key(k.str());
+      if (v.is_table()) {
+        self(self, *v.as_table(), path.empty() ? key : path + "." + key);
+      } else if (!is_valid) {
+        throw InvalidInputError(OriginOf(path, key) + ": key '" + key + "' " +
+                                (path.empty() ? std::string("outside any table")
+                                              : "in [" + path + "], which is not a stage table") +
+                                "; valid tables: " + list);
+      }
+    }
+  };
+  check(check, impl_->root, "");
 }
 
 void Config::CopyTable(const Config& other, const std::string& table) {
   const toml::table* src = FindTable(other.impl_->root, table);
   if (!src) return;
+  const auto under = [&](const std::string& t) {
+    return table.empty() || t == table || t.compare(0, table.size() + 1, table + ".") == 0;
+  };
+  for (auto it = value_origins_.begin(); it != value_origins_.end();) {
+    it = under(it->first.first) ? value_origins_.erase(it) : std::next(it);
+  }
+  for (const auto& [where, origin] : other.value_origins_) {
+    if (under(where.first)) value_origins_[where] = origin;
+  }
   std::vector<std::string> parts = SplitDots(table);
   if (parts.empty()) {
     impl_->root = *src;

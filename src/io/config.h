@@ -11,14 +11,17 @@
 // LoadOptions() fills a struct from a table (an unknown key is an error that lists the valid
 // keys; a value of the wrong type names the key and the type expected); StoreOptions() writes
 // the resolved values back, so the resolved configuration can be stored in every output.
-// toml++ stays inside config.cpp.
+// CheckTables() rejects a table that no stage reads. Every error names where the value came
+// from: the job file, `--set`, or the flag. toml++ stays inside config.cpp.
 #ifndef FACECAP_IO_CONFIG_H_
 #define FACECAP_IO_CONFIG_H_
 
 #include <algorithm>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "util/errors.h"
@@ -37,7 +40,18 @@ class Config {
   static Config Load(const std::string& path);
   static Config Parse(const std::string& text, const std::string& origin = "<string>");
 
+  // The job file's path, or "<defaults>" when there is none.
   const std::string& origin() const { return origin_; }
+  // Where a value came from: the origin given to SetFromText ("--set", "--count"), else
+  // origin().
+  std::string OriginOf(const std::string& table, const std::string& key) const;
+  // The distinct origins of a table's values, comma-separated ("job.toml, --count"); origin()
+  // when the table holds no value.
+  std::string OriginsOf(const std::string& table) const;
+  // Whom to name for a failed Check() of `table`: the origin of the key that `why` starts
+  // with ("identity_scale must be in [0, 3]") when the table holds that key, else
+  // OriginsOf(table).
+  std::string OriginOfCheck(const std::string& table, const std::string& why) const;
   // Tables are dotted paths: "synth.samples".
   bool HasTable(const std::string& table) const;
   bool Has(const std::string& table, const std::string& key) const;
@@ -68,11 +82,18 @@ class Config {
   void Set(const std::string& table, const std::string& key, const std::vector<float>& value);
   void Set(const std::string& table, const std::string& key,
            const std::vector<std::string>& value);
-  // Sets a value from its command-line text: a TOML literal (42, 0.5, true, [1, 2],
-  // "text") or, failing that, a bare string.
-  void SetFromText(const std::string& table, const std::string& key, const std::string& text);
-  // Applies "table.key=value" (the --set flag).
+  // Sets a value from its command-line text: one TOML literal (42, 0.5, true, [1, 2],
+  // "text") or, failing that, a bare string. `origin` labels errors about the value ("--set",
+  // "--count"); empty: origin().
+  void SetFromText(const std::string& table, const std::string& key, const std::string& text,
+                   const std::string& origin = "");
+  // Applies "table.key=value" (the --set flag); errors about the value name "--set".
   void SetAssignment(const std::string& assignment);
+
+  // InvalidInputError, naming the origin and listing `valid`, when a table is not one of
+  // `valid` (dotted paths: "rig.demo") nor a parent of one ([rig] of [rig.demo]), or when a
+  // value sits outside the valid tables (at the top, or in a parent such as [rig]).
+  void CheckTables(const std::vector<std::string>& valid) const;
 
   // Copies `table` (and its sub-tables) of `other` into this config, replacing it.
   void CopyTable(const Config& other, const std::string& table);
@@ -81,8 +102,12 @@ class Config {
 
  private:
   struct Impl;
+  void ForgetOrigin(const std::string& table, const std::string& key);
+
   std::unique_ptr<Impl> impl_;
   std::string origin_ = "<defaults>";
+  // (table, key) -> origin, for values set with an origin of their own.
+  std::map<std::pair<std::string, std::string>, std::string> value_origins_;
 };
 
 // Fills `options` from `table` of `config`. Unknown keys: InvalidInputError listing the valid
@@ -98,8 +123,8 @@ void LoadOptions(const Config& config, const std::string& table, Options* option
     if (std::find(valid.begin(), valid.end(), key) == valid.end()) {
       std::string list;
       for (const auto& v : valid) list += (list.empty() ? "" : ", ") + v;
-      throw InvalidInputError(config.origin() + ": unknown key '" + key + "' in [" + table +
-                              "]; valid keys: " + list);
+      throw InvalidInputError(config.OriginOf(table, key) + ": unknown key '" + key + "' in [" +
+                              table + "]; valid keys: " + list);
     }
   }
 }
@@ -119,7 +144,7 @@ Options ResolveOptions(const Config& config, const std::string& table) {
   LoadOptions(config, table, &options);
   std::string why;
   if (!options.Check(&why)) {
-    throw InvalidInputError(config.origin() + ": [" + table + "] " + why);
+    throw InvalidInputError(config.OriginOfCheck(table, why) + ": [" + table + "] " + why);
   }
   return options;
 }

@@ -1,5 +1,8 @@
 #include "io/config.h"
 
+#include <string>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 namespace facecap::io {
@@ -71,6 +74,98 @@ TEST(Config, OverridesFromTextAndAssignments) {
   EXPECT_TRUE(o.video);
   EXPECT_EQ(o.sizes, (std::vector<int>{16, 24}));
   EXPECT_THROW(c.SetAssignment("novalue"), InvalidInputError);
+}
+
+// The message of the InvalidInputError that `fn` throws; "" when it throws none.
+template <typename Fn>
+std::string ErrorOf(Fn fn) {
+  try {
+    fn();
+  } catch (const InvalidInputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+const std::vector<std::string> kJobTables = {"run", "rig.demo", "rig.import", "render",
+                                             "synth.samples"};
+
+TEST(Config, CheckTablesAcceptsEveryStageTableAndTheirParents) {
+  Config c = Config::Parse(
+      "[run]\nstages = ['rig.demo']\n[rig.demo]\nidentity_seed = 3\n[render]\nsize = 64\n"
+      "[synth.samples]\ncount = 4\n",
+      "job.toml");
+  EXPECT_NO_THROW(c.CheckTables(kJobTables));
+  EXPECT_NO_THROW(Config().CheckTables(kJobTables));
+  EXPECT_NO_THROW(Config::Parse("[rig]\n", "job.toml").CheckTables(kJobTables));
+}
+
+TEST(Config, UnknownTableNamesTheFileTheTableAndTheValidTables) {
+  for (const char* text : {"[rig.demoo]\nidentity_seed = 3\n", "[rigg]\n",
+                           "[rig.demo]\n[rigg.demo]\nout = 'x'\n"}) {
+    const std::string msg =
+        ErrorOf([&] { Config::Parse(text, "job.toml").CheckTables(kJobTables); });
+    EXPECT_EQ(msg.rfind("job.toml: unknown table [rig", 0), 0u) << text << ": " << msg;
+    EXPECT_NE(msg.find("valid tables: run, rig.demo, rig.import, render, synth.samples"),
+              std::string::npos)
+        << msg;
+  }
+  // A table inside a stage's table is read by no one either.
+  const std::string nested = ErrorOf(
+      [] { Config::Parse("[render.extra]\nsize = 3\n", "job.toml").CheckTables(kJobTables); });
+  EXPECT_NE(nested.find("unknown table [render.extra]"), std::string::npos) << nested;
+}
+
+TEST(Config, ValuesOutsideStageTablesAreErrors) {
+  const std::string top = ErrorOf(
+      [] { Config::Parse("count = 3\n[render]\n", "job.toml").CheckTables(kJobTables); });
+  EXPECT_NE(top.find("job.toml: key 'count' outside any table"), std::string::npos) << top;
+  const std::string parent =
+      ErrorOf([] { Config::Parse("[rig]\nout = 'x'\n", "job.toml").CheckTables(kJobTables); });
+  EXPECT_NE(parent.find("job.toml: key 'out' in [rig]"), std::string::npos) << parent;
+}
+
+TEST(Config, UnknownTableFromSetIsLabelledSet) {
+  Config c = Config::Parse("[rig.demo]\nidentity_seed = 1\n", "job.toml");
+  c.SetAssignment("rigdemo.identity_seed=3");
+  const std::string msg = ErrorOf([&] { c.CheckTables(kJobTables); });
+  EXPECT_EQ(msg.rfind("--set: unknown table [rigdemo]", 0), 0u) << msg;
+}
+
+TEST(Config, ErrorsNameTheSourceOfTheValue) {
+  Config c = Config::Parse("[t]\ncount = 'many'\n", "job.toml");
+  auto resolve = [&] { ResolveOptions<ExampleOptions>(c, "t"); };
+  EXPECT_EQ(ErrorOf(resolve).rfind("job.toml: [t] count", 0), 0u) << ErrorOf(resolve);
+  c.SetAssignment("t.count=lots");
+  EXPECT_EQ(ErrorOf(resolve).rfind("--set: [t] count", 0), 0u) << ErrorOf(resolve);
+  c.SetFromText("t", "count", "few", "--count");
+  EXPECT_EQ(ErrorOf(resolve).rfind("--count: [t] count", 0), 0u) << ErrorOf(resolve);
+  c.SetFromText("t", "count", "-4", "--count");  // parses, fails Check()
+  c.SetFromText("t", "out", "x.h5", "--out");
+  const std::string check = ErrorOf([&] { ResolveOptions<ExampleOptions>(c, "t"); });
+  EXPECT_EQ(check.rfind("--count: [t] count must be positive", 0), 0u) << check;
+  c.Set("t", "count", 5);  // set by the program: the job file's origin again
+  c.SetAssignment("t.cuont=5");
+  const std::string unknown = ErrorOf([&] { ResolveOptions<ExampleOptions>(c, "t"); });
+  EXPECT_EQ(unknown.rfind("--set: unknown key 'cuont'", 0), 0u) << unknown;
+  // Without a job file, flag values are not labelled as defaults.
+  Config flags_only;
+  flags_only.SetFromText("t", "yaw_max_deg", "'x'", "--yaw-max-deg");
+  const std::string flag = ErrorOf([&] { ResolveOptions<ExampleOptions>(flags_only, "t"); });
+  EXPECT_EQ(flag.rfind("--yaw-max-deg: [t] yaw_max_deg", 0), 0u) << flag;
+  EXPECT_EQ(flag.find("<defaults>"), std::string::npos) << flag;
+}
+
+TEST(Config, TextIsOneLiteralOrAString) {
+  Config c;
+  c.SetFromText("t", "count", "3\nvideo = true", "--count");
+  const std::string msg = ErrorOf([&] { ResolveOptions<ExampleOptions>(c, "t"); });
+  EXPECT_NE(msg.find("count must be an integer, got string"), std::string::npos) << msg;
+  EXPECT_FALSE(c.Has("t", "video"));
+  std::string out;
+  c.SetFromText("t", "out", "a = b");
+  c.Get("t", "out", &out);
+  EXPECT_EQ(out, "a = b");
 }
 
 TEST(Config, StoredOptionsRoundTripThroughToml) {

@@ -1,13 +1,65 @@
 #include "stages/cli.h"
 
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+
 #include "util/errors.h"
 
 namespace facecap::stages {
 
+std::string NumberFlagToToml(const std::string& text, bool integral) {
+  // The decimal grammar only: from_chars alone would also take "inf", "nan" and hex digits
+  // after a prefix, and stops quietly at the first character it does not read.
+  size_t i = 0;
+  const size_t n = text.size();
+  const auto digits = [&] {
+    const size_t start = i;
+    while (i < n && text[i] >= '0' && text[i] <= '9') ++i;
+    return i - start;
+  };
+  if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
+  const size_t sign_end = i;
+  size_t mantissa_digits = digits();
+  if (!integral && i < n && text[i] == '.') {
+    ++i;
+    mantissa_digits += digits();
+  }
+  if (mantissa_digits == 0) return "";
+  if (!integral && i < n && (text[i] == 'e' || text[i] == 'E')) {
+    ++i;
+    if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
+    if (digits() == 0) return "";
+  }
+  if (i != n) return "";
+  const bool negative = text[0] == '-';
+  const char* first = text.data() + sign_end;
+  const char* last = text.data() + n;
+  char buffer[64];
+  if (integral) {
+    uint64_t magnitude = 0;
+    const auto parsed = std::from_chars(first, last, magnitude);
+    if (parsed.ec != std::errc() || parsed.ptr != last) return "";
+    if (magnitude > (negative ? uint64_t{1} << 63 : uint64_t{INT64_MAX})) return "";
+    const auto printed = std::to_chars(buffer, buffer + sizeof(buffer), magnitude);
+    return (negative ? "-" : "") + std::string(buffer, printed.ptr);
+  }
+  double value = 0;
+  const auto parsed = std::from_chars(first, last, value);
+  if (parsed.ec != std::errc() || parsed.ptr != last || !std::isfinite(value)) return "";
+  if (negative) value = -value;
+  // Shortest round-trip form: "0.5", "1e+20", "3"; all of them TOML literals.
+  const auto printed = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  return std::string(buffer, printed.ptr);
+}
+
 io::Config BuildConfig(const StageFlags& flags) {
   io::Config config = flags.job.empty() ? io::Config() : io::Config::Load(flags.job);
   for (const auto& assignment : flags.sets) config.SetAssignment(assignment);
-  for (const auto& [key, text] : flags.overrides) config.SetFromText(flags.table, key, text);
+  for (const auto& [key, text] : flags.overrides) {
+    config.SetFromText(flags.table, key, text, FlagName(key));
+  }
+  if (flags.job_tables) config.CheckTables(*flags.job_tables);
   return config;
 }
 

@@ -3,6 +3,8 @@
 // Every stage option struct (see io/config.h) becomes flags automatically: a field `count`
 // of table [synth.samples] is `--count`, with its help text and default shown by --help.
 // Precedence: struct defaults < job file (--job) < --set table.key=value < the flags.
+// A job file holds every stage's table, so a stage accepts the other stages' tables; a table
+// that no stage reads ([rig.demoo], --set rigdemo.identity_seed=3) is an error.
 #ifndef FACECAP_STAGES_CLI_H_
 #define FACECAP_STAGES_CLI_H_
 
@@ -16,6 +18,7 @@
 
 #include "io/config.h"
 #include "stages/stage.h"
+#include "util/errors.h"
 
 namespace facecap::stages {
 
@@ -25,6 +28,8 @@ struct StageFlags {
   std::vector<std::string> sets;           // --set table.key=value
   std::map<std::string, std::string> overrides;  // table key -> text given on the command line
   std::string table;
+  // The tables a job file may have (every stage's, and [run]); null: tables are not checked.
+  const std::vector<std::string>* job_tables = nullptr;
 };
 
 template <typename T>
@@ -59,13 +64,24 @@ inline std::string TomlQuote(const std::string& text) {
   return q + "\"";
 }
 
-// The TOML literal for a flag's text: strings are quoted, lists may be given as "1,2,3".
+// The TOML literal of a numeric flag's text, or "" when the text is not exactly one finite
+// decimal number (an integer when `integral`): "1 2", "3\n", "0x10", "nan", "1e999" are not.
+std::string NumberFlagToToml(const std::string& text, bool integral);
+
+// The TOML literal for a flag's text: strings are quoted, lists may be given as "1,2,3", a
+// number must be exactly one number (InvalidInputError otherwise).
 template <typename Field>
 std::string FlagTextToToml(const std::string& text) {
   if constexpr (std::is_same_v<Field, std::string>) {
     return TomlQuote(text);
   } else if constexpr (std::is_arithmetic_v<Field>) {
-    return text;
+    constexpr bool kIntegral = std::is_integral_v<Field>;
+    std::string literal = NumberFlagToToml(text, kIntegral);
+    if (literal.empty()) {
+      throw InvalidInputError("expected " + std::string(kIntegral ? "an integer" : "a number") +
+                              ", got '" + text + "'");
+    }
+    return literal;
   } else {
     if (!text.empty() && text.front() == '[') return text;
     std::string out = "[";
@@ -108,7 +124,15 @@ void AddStageFlags(CLI::App* sub, const std::string& table, StageFlags* flags) {
           [flags, k](const std::string& text) { flags->overrides[k] = FlagTextToToml<Field>(text); },
           description);
       if constexpr (std::is_arithmetic_v<Field>) {
-        option->type_name(std::is_integral_v<Field> ? "INT" : "FLOAT");
+        constexpr bool kIntegral = std::is_integral_v<Field>;
+        option->type_name(kIntegral ? "INT" : "FLOAT");
+        option->check(CLI::Validator(
+            [](std::string& text) -> std::string {
+              if (!NumberFlagToToml(text, kIntegral).empty()) return "";
+              return std::string("expected ") + (kIntegral ? "an integer" : "a number") +
+                     ", got '" + text + "'";
+            },
+            ""));
       } else if constexpr (std::is_same_v<Field, std::string>) {
         option->type_name("TEXT");
       } else {
@@ -118,7 +142,8 @@ void AddStageFlags(CLI::App* sub, const std::string& table, StageFlags* flags) {
   });
 }
 
-// The job configuration with --set and flags applied (flags win).
+// The job configuration with --set and flags applied (flags win); with flags.job_tables, a
+// table that is not one of them is an error that names it, its source and the valid tables.
 io::Config BuildConfig(const StageFlags& flags);
 
 // Resolves Options for the stage: defaults, job file, --set, flags; then Check().

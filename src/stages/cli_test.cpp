@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "stages/cli.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -52,6 +53,107 @@ TEST(Cli, BadValuesAndMissingInputsHaveTheirExitCodes) {
   Result missing = RunFacecap("render --rig " + dir.File("absent.h5") + " --out " + dir.File("x.png"));
   EXPECT_EQ(missing.code, kExitInput) << missing.output;
   EXPECT_NE(missing.output.find("absent.h5"), std::string::npos) << missing.output;
+}
+
+TEST(Cli, RigHelpNamesOnlyRealSubcommands) {
+  Result r = RunFacecap("rig --help");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output.find("describe"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("info"), std::string::npos) << r.output;
+}
+
+TEST(Cli, UnknownJobFileTableExitsWithUsageCodeAndNamesValidTables) {
+  testing::TempDir dir;
+  const std::string job = dir.File("job.toml");
+  std::ofstream(job) << "[rig.demoo]\nidentity_seed = 3\n";
+  Result r = RunFacecap("rig demo --job " + job + " --out " + dir.File("rig.h5"));
+  EXPECT_EQ(r.code, kExitUsage) << r.output;
+  EXPECT_NE(r.output.find(job + ": unknown table [rig.demoo]"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("valid tables: run, rig.demo, rig.import, rig.export, render"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(std::ifstream(dir.File("rig.h5")).good());
+
+  Result set = RunFacecap("rig demo --set rigdemo.identity_seed=3 --out " + dir.File("rig.h5"));
+  EXPECT_EQ(set.code, kExitUsage) << set.output;
+  EXPECT_NE(set.output.find("--set: unknown table [rigdemo]"), std::string::npos) << set.output;
+
+  const std::string run_job = dir.File("run.toml");
+  std::ofstream(run_job) << "[rigg]\nout = '" << dir.File("rig.h5") << "'\n";
+  Result run = RunFacecap("run " + run_job);
+  EXPECT_EQ(run.code, kExitUsage) << run.output;
+  EXPECT_NE(run.output.find(run_job + ": unknown table [rigg]"), std::string::npos) << run.output;
+}
+
+TEST(Cli, JobFileWithOtherStagesTablesIsAcceptedByOneStage) {
+  testing::TempDir dir;
+  const std::string job = dir.File("job.toml");
+  std::ofstream(job) << "[run]\nstages = ['rig.demo', 'render']\n"
+                     << "[rig.demo]\nout = '" << dir.File("rig.h5") << "'\n"
+                     << "[render]\nrig = '" << dir.File("rig.h5") << "'\n"
+                     << "[synth.samples]\ncount = 8\n";
+  Result r = RunFacecap("rig demo --job " + job);
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(std::ifstream(dir.File("rig.h5")).good()) << r.output;
+}
+
+TEST(Cli, RunChecksEveryStageBeforeTheFirstStartsAndRejectsAJobWithoutStages) {
+  testing::TempDir dir;
+  const std::string job = dir.File("job.toml");
+  std::ofstream(job) << "[rig.demo]\nout = '" << dir.File("rig.h5") << "'\n"
+                     << "[render]\nrig = '" << dir.File("rig.h5") << "'\nsize = 3\n";
+  Result r = RunFacecap("run " + job);
+  EXPECT_EQ(r.code, kExitUsage) << r.output;
+  EXPECT_NE(r.output.find("[render] size must be in [16, 8192]"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::ifstream(dir.File("rig.h5")).good()) << "rig demo ran before the check";
+
+  const std::string empty = dir.File("empty.toml");
+  std::ofstream(empty) << "# nothing to run\n";
+  Result none = RunFacecap("run " + empty);
+  EXPECT_EQ(none.code, kExitUsage) << none.output;
+  EXPECT_NE(none.output.find("no stage to run"), std::string::npos) << none.output;
+}
+
+TEST(Cli, NumericFlagTextIsExactlyOneNumber) {
+  EXPECT_EQ(NumberFlagToToml("42", true), "42");
+  EXPECT_EQ(NumberFlagToToml("-7", true), "-7");
+  EXPECT_EQ(NumberFlagToToml("+007", true), "7");
+  EXPECT_EQ(NumberFlagToToml("-9223372036854775808", true), "-9223372036854775808");
+  EXPECT_EQ(NumberFlagToToml("0.5", false), "0.5");
+  EXPECT_EQ(NumberFlagToToml("-.25", false), "-0.25");
+  EXPECT_EQ(NumberFlagToToml("3", false), "3");
+  EXPECT_EQ(NumberFlagToToml("1e20", false), "1e+20");
+  EXPECT_EQ(NumberFlagToToml("2.5E-3", false), "0.0025");
+  for (const char* bad : {"", " ", "1 2", "3\n", "3\nidentity_scale = 9", " 3", "1.5", "0x10",
+                          "1e3", "9223372036854775808", "--3", "1_000", "seven"}) {
+    EXPECT_EQ(NumberFlagToToml(bad, true), "") << "integer '" << bad << "'";
+  }
+  for (const char* bad : {"", ".", "0.5 1", "nan", "inf", "-inf", "1e999", "0.5x", "1e", "1e+",
+                          "0x1p3", "1,5", "2.5\n"}) {
+    EXPECT_EQ(NumberFlagToToml(bad, false), "") << "number '" << bad << "'";
+  }
+  EXPECT_EQ(FlagTextToToml<int>("12"), "12");
+  EXPECT_THROW(FlagTextToToml<int>("1 2"), InvalidInputError);
+  EXPECT_THROW(FlagTextToToml<float>("nan"), InvalidInputError);
+}
+
+TEST(Cli, NumericFlagThatIsNotOneNumberExitsWithUsageCode) {
+  testing::TempDir dir;
+  const std::string out = " --out " + dir.File("rig.h5");
+  // A newline would have smuggled a second key into the table.
+  Result r = RunFacecap("rig demo --identity-seed '3\nidentity_scale = 9'" + out);
+  EXPECT_EQ(r.code, kExitUsage) << r.output;
+  EXPECT_NE(r.output.find("--identity-seed: expected an integer"), std::string::npos) << r.output;
+  Result nan = RunFacecap("rig demo --identity-scale nan" + out);
+  EXPECT_EQ(nan.code, kExitUsage) << nan.output;
+  EXPECT_NE(nan.output.find("--identity-scale: expected a number"), std::string::npos)
+      << nan.output;
+  EXPECT_FALSE(std::ifstream(dir.File("rig.h5")).good());
+  // A range error names the flag, not "<defaults>".
+  Result range = RunFacecap("rig demo --identity-scale 9" + out);
+  EXPECT_EQ(range.code, kExitUsage) << range.output;
+  EXPECT_NE(range.output.find("--identity-scale: [rig.demo]"), std::string::npos) << range.output;
+  EXPECT_EQ(range.output.find("<defaults>"), std::string::npos) << range.output;
 }
 
 }  // namespace

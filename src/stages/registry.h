@@ -36,8 +36,14 @@ struct AppState {
   dist::Comm comm = dist::Comm::Single();
   std::string command_line;
   std::list<StageFlags> stage_flags;  // one per subcommand; a list keeps pointers stable
-  StageFlags* NewFlags() { return &stage_flags.emplace_back(); }
+  StageFlags* NewFlags() {
+    StageFlags* flags = &stage_flags.emplace_back();
+    flags->job_tables = &job_tables;
+    return flags;
+  }
   std::vector<StageSpec> stages;      // in pipeline order, for `facecap run`
+  // The tables a job file may have: [run] and every stage's table (AddStage adds them).
+  std::vector<std::string> job_tables = {"run"};
 };
 
 // Adds a subcommand for a stage whose options are `Options` (table `table`), runnable by
@@ -51,6 +57,7 @@ CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
   CLI::App* sub = parent->add_subcommand(name, description);
   AddStageFlags<Options>(sub, table, flags);
   sub->callback([=] { run(*flags, state); });
+  state->job_tables.push_back(table);
   StageSpec spec;
   spec.table = table;
   spec.command = command;

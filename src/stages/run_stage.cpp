@@ -48,6 +48,8 @@ std::string WhyRun(const StageSpec& spec, const io::Config& config, std::string*
 void RunJob(const RunFlags& flags, AppState* state) {
   io::Config config = io::Config::Load(flags.job);
   for (const auto& s : flags.sets) config.SetAssignment(s);
+  // A misspelled table ([rigg]) would otherwise be a stage that silently never runs.
+  config.CheckTables(state->job_tables);
   // Which stages: [run] stages = [...] in that order, else every stage table present.
   std::vector<std::string> tables;
   if (config.Has("run", "stages")) {
@@ -76,6 +78,14 @@ void RunJob(const RunFlags& flags, AppState* state) {
     }
     plan.push_back(found);
   }
+  if (plan.empty()) {
+    std::string valid;
+    for (const StageSpec& spec : state->stages) valid += (valid.empty() ? "" : ", ") + spec.table;
+    throw InvalidInputError(flags.job + ": no stage to run; stage tables: " + valid);
+  }
+  // Every stage's options are read and range-checked before the first stage starts, so a bad
+  // value in a late stage does not surface hours into the run.
+  for (const StageSpec* spec : plan) spec->resolve(config);
   auto index_of = [&](const std::string& table, const char* flag) {
     for (size_t i = 0; i < plan.size(); ++i) if (plan[i]->table == table) return i;
     throw InvalidInputError(std::string("--") + flag + " " + table + ": not a stage of " + flags.job);
@@ -118,6 +128,7 @@ void RunJob(const RunFlags& flags, AppState* state) {
     stage_flags.job = flags.job;
     stage_flags.sets = flags.sets;
     stage_flags.table = spec.table;
+    stage_flags.job_tables = &state->job_tables;
     spec.run(stage_flags);
   }
   if (main_rank && !flags.dry_run) FC_INFO("run {}: done", flags.job);
