@@ -1,10 +1,15 @@
-// facecap render: a rig at a given pose and weights to PNG/EXR, or a contact sheet of the
-// neutral and expressions (segmentation and shaded side by side).
+// facecap render: a rig at a given pose and weights to PNG/EXR (and, with --mesh-out, the posed
+// mesh to OBJ or glTF), or a contact sheet of the neutral and expressions (segmentation and
+// shaded side by side).
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "io/image_io.h"
+#include "io/mesh_io.h"
 #include "io/rig_io.h"
 #include "render/contact_sheet.h"
 #include "render/framing.h"
@@ -34,6 +39,7 @@ struct RenderStageOptions {
   float roll_deg = 0.f;                  // head roll
   std::vector<std::string> weights;      // shape weights as name=value
   bool sheet = false;                    // contact sheet of neutral + expressions
+  std::string mesh_out;                  // posed mesh (.obj, .glb, .gltf); empty: none
   int threads = 0;                       // OpenMP threads (0: all)
 
   template <class V>
@@ -49,6 +55,10 @@ struct RenderStageOptions {
     v("weights", weights, "shape weights as name=value, e.g. jawOpen=0.7,eyeBlinkLeft=1");
     v("sheet", sheet, "write a contact sheet: the neutral and expressions, segmentation and "
                       "shaded side by side");
+    v("mesh_out", mesh_out,
+      "also write the posed mesh (the weights' expression rotated by pitch, yaw and roll about "
+      "the rig's origin, without the camera's translation) to .obj (cm), .glb or .gltf (m); "
+      "empty: none");
     v("threads", threads, "OpenMP threads for rendering (0: all available)");
   }
   bool Check(std::string* why) const {
@@ -61,6 +71,19 @@ struct RenderStageOptions {
     if (std::abs(pitch_deg) > 90.f || std::abs(yaw_deg) > 180.f || std::abs(roll_deg) > 180.f) {
       *why = "pose out of range (|pitch| <= 90, |yaw| <= 180, |roll| <= 180 degrees)";
       return false;
+    }
+    if (!mesh_out.empty()) {
+      std::string extension = std::filesystem::path(mesh_out).extension().string();
+      std::transform(extension.begin(), extension.end(), extension.begin(),
+                     [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      if (extension != ".obj" && extension != ".glb" && extension != ".gltf") {
+        *why = "mesh_out must end in .obj, .glb or .gltf, got '" + mesh_out + "'";
+        return false;
+      }
+      if (sheet) {
+        *why = "mesh_out writes the mesh of one render; it does not go with sheet";
+        return false;
+      }
     }
     return true;
   }
@@ -215,9 +238,18 @@ void RunRender(const StageFlags& flags, AppState* state) {
   Renderer renderer(rig, o.threads);
   if (!o.sheet) {
     const Eigen::VectorXf w = ParseWeights(rig, o.weights);
-    renderer.Pose(FrameHead(rig, o.size, o.fov_deg, o.pitch_deg * kDegToRad, o.yaw_deg * kDegToRad,
-                            o.roll_deg * kDegToRad),
-                  w);
+    const Framing framing = FrameHead(rig, o.size, o.fov_deg, o.pitch_deg * kDegToRad,
+                                      o.yaw_deg * kDegToRad, o.roll_deg * kDegToRad);
+    renderer.Pose(framing, w);
+    if (!o.mesh_out.empty()) {
+      rig::RigidPose rotation = framing.pose;  // the render's rotation, at the rig's origin
+      rotation.translation.setZero();
+      rotation.scale = 1.f;
+      rig::Vertices posed;
+      rig::EvaluatePosed(rig, rotation, w, &posed);
+      io::ExportPosedMesh(rig, posed, o.mesh_out);
+      FC_INFO("render: posed mesh ({} vertices) -> {}", posed.rows(), o.mesh_out);
+    }
     if (o.mode == "segmentation") io::WriteImage(o.out, renderer.Segmentation());
     if (o.mode == "shaded") io::WriteImage(o.out, renderer.Shaded());
     if (o.mode == "uv") io::WriteImage(o.out, renderer.UV());
