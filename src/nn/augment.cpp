@@ -1,7 +1,9 @@
 #include "nn/augment.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <unordered_map>
 #include <vector>
 
 namespace facecap::nn {
@@ -13,6 +15,7 @@ bool AugmentOptions::Check(std::string* why) const {
   if (scale < 0 || scale > 0.5f) { *why = "scale must be in [0, 0.5]"; return false; }
   if (shift < 0 || shift > 0.5f) { *why = "shift must be in [0, 0.5]"; return false; }
   if (color_jitter < 0 || color_jitter > 1) { *why = "color_jitter must be in [0, 1]"; return false; }
+  if (!(randomize_a >= 0 && randomize_a <= 1)) { *why = "randomize_a must be in [0, 1]"; return false; }
   return true;
 }
 
@@ -60,7 +63,9 @@ void ResizeToFloat(const uint8_t* image, int source_size, int size, float* out) 
 }
 
 void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentOptions& o,
-                 bool jitter_colors, Rng* rng, float* input, float* target) {
+                 bool jitter_colors, Rng* rng, float* input, float* target,
+                 const uint8_t* input_image) {
+  if (!input_image) input_image = image;
   // The similarity transform, in normalized coordinates centred on the image: output point
   // p (in [-1, 1]^2) samples the source at s R p + t, mirrored in x when flipped.
   const float angle = static_cast<float>(rng->Uniform(-1, 1)) * o.rotate_deg * 3.14159265f / 180.f;
@@ -104,11 +109,122 @@ void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentO
       to_source(nx, ny, &sx, &sy);
       Sample(image, source_size, sx, sy, target + k);
       to_source(nx + Field(warp_x, grid, u, v), ny + Field(warp_y, grid, u, v), &sx, &sy);
-      Sample(image, source_size, sx, sy, input + k);
+      Sample(input_image, source_size, sx, sy, input + k);
       for (int c = 0; c < 3; ++c) {
         for (float* out : {input + k + c, target + k + c}) {
           *out = std::clamp(((*out - 0.5f) * contrast + 0.5f + brightness) * gain[c], 0.f, 1.f);
         }
+      }
+    }
+  }
+}
+
+RegionKind RegionKindOf(const std::string& n) {
+  auto has = [&](const char* part) { return n.find(part) != std::string::npos; };
+  if (has("lip")) return RegionKind::kLips;
+  if (has("brow")) return RegionKind::kBrow;
+  if (has("hair")) return RegionKind::kHair;
+  if (has("sclera")) return RegionKind::kSclera;
+  if (has("iris")) return RegionKind::kIris;
+  if (has("pupil")) return RegionKind::kPupil;
+  if (has("mouth")) return RegionKind::kMouth;
+  return RegionKind::kSkin;  // skin, nose, neck, eyelids, cheeks, ...
+}
+
+namespace {
+
+using Rgb = std::array<float, 3>;
+
+Rgb Mix(const Rgb& a, const Rgb& b, float t) {
+  return {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+}
+
+Rgb Scaled(const Rgb& c, float r, float g, float b) { return {c[0] * r, c[1] * g, c[2] * b}; }
+
+Rgb Unpack(uint32_t c) {
+  return {((c >> 16) & 255) / 255.f, ((c >> 8) & 255) / 255.f, (c & 255) / 255.f};
+}
+
+}  // namespace
+
+void RepaintSegmentation(const uint8_t* image, int size, const SegmentationPalette& palette,
+                         Rng* rng, uint8_t* out) {
+  auto uniform = [&](double lo, double hi) { return static_cast<float>(rng->Uniform(lo, hi)); };
+  // The person: a skin tone between dark and light, hair and brows, eyes.
+  const Rgb skin = Mix({0.33f, 0.21f, 0.15f}, {0.96f, 0.80f, 0.70f}, uniform(0, 1));
+  const Rgb hair = Mix({0.04f, 0.03f, 0.02f}, {0.55f, 0.40f, 0.25f}, uniform(0, 1));
+  const Rgb iris = Mix({0.20f, 0.12f, 0.06f}, {0.30f, 0.45f, 0.60f}, uniform(0, 1));
+  std::vector<Rgb> albedo(palette.colors.size());
+  for (size_t r = 0; r < albedo.size(); ++r) {
+    Rgb c;
+    switch (palette.kinds[r]) {
+      case RegionKind::kSkin:
+        c = Scaled(skin, uniform(0.9, 1.08), uniform(0.9, 1.06), uniform(0.9, 1.06));
+        break;
+      case RegionKind::kLips:
+        c = Scaled(skin, uniform(0.75, 0.95), uniform(0.45, 0.7), uniform(0.5, 0.75));
+        break;
+      case RegionKind::kBrow: c = Mix(hair, skin, uniform(0.0, 0.5)); break;
+      case RegionKind::kHair: c = hair; break;
+      case RegionKind::kSclera: c = Mix({0.70f, 0.66f, 0.62f}, {0.95f, 0.93f, 0.90f}, uniform(0, 1)); break;
+      case RegionKind::kIris: c = iris; break;
+      case RegionKind::kPupil: c = {0.03f, 0.03f, 0.03f}; break;
+      case RegionKind::kMouth: c = Scaled(skin, uniform(0.25, 0.45), uniform(0.1, 0.2), uniform(0.1, 0.2)); break;
+    }
+    albedo[r] = c;
+  }
+  // Background: a colour or a vertical or horizontal gradient between two colours.
+  const Rgb back0 = {uniform(0, 1), uniform(0, 1), uniform(0, 1)};
+  const Rgb back1 = rng->Uniform() < 0.5 ? back0 : Rgb{uniform(0, 1), uniform(0, 1), uniform(0, 1)};
+  const bool vertical = rng->Uniform() < 0.5;
+  // Shading: ambient plus a directional ramp and one soft blob of light or shadow.
+  const float ambient = uniform(0.55, 0.85), ramp_x = uniform(-0.35, 0.35), ramp_y = uniform(-0.25, 0.25);
+  const float blob_x = uniform(0.2, 0.8), blob_y = uniform(0.2, 0.8), blob_r = uniform(0.15, 0.45);
+  const float blob_gain = uniform(-0.25, 0.35);
+  const float noise = uniform(0.0, 0.04);
+  // Palette lookup by packed colour; colours not in the palette (resampled borders) take
+  // the nearest entry.
+  std::unordered_map<uint32_t, int> index;
+  for (size_t r = 0; r < palette.colors.size(); ++r) index[palette.colors[r]] = static_cast<int>(r);
+  index[palette.background] = -1;
+  auto region_of = [&](uint32_t c) {
+    auto it = index.find(c);
+    if (it != index.end()) return it->second;
+    const Rgb v = Unpack(c);
+    float best = 1e9f;
+    int best_r = -1;
+    auto consider = [&](uint32_t q, int r) {
+      const Rgb u = Unpack(q);
+      const float d = (u[0] - v[0]) * (u[0] - v[0]) + (u[1] - v[1]) * (u[1] - v[1]) +
+                      (u[2] - v[2]) * (u[2] - v[2]);
+      if (d < best) {
+        best = d;
+        best_r = r;
+      }
+    };
+    consider(palette.background, -1);
+    for (size_t r = 0; r < palette.colors.size(); ++r) consider(palette.colors[r], static_cast<int>(r));
+    index[c] = best_r;
+    return best_r;
+  };
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const size_t k = (static_cast<size_t>(y) * size + x) * 3;
+      const uint32_t packed = (uint32_t{image[k]} << 16) | (uint32_t{image[k + 1]} << 8) | image[k + 2];
+      const int r = region_of(packed);
+      const float u = (x + 0.5f) / size, v = (y + 0.5f) / size;
+      Rgb c;
+      if (r < 0) {
+        c = Mix(back0, back1, vertical ? v : u);
+      } else {
+        const float dx = u - blob_x, dy = v - blob_y;
+        const float shade = ambient + ramp_x * (u - 0.5f) + ramp_y * (v - 0.5f) +
+                            blob_gain * std::exp(-(dx * dx + dy * dy) / (blob_r * blob_r));
+        c = Scaled(albedo[r], shade, shade, shade);
+      }
+      for (int ch = 0; ch < 3; ++ch) {
+        const float value = c[ch] + noise * static_cast<float>(rng->Normal());
+        out[k + ch] = static_cast<uint8_t>(std::clamp(std::lround(255.f * value), 0L, 255L));
       }
     }
   }

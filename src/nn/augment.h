@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "util/random.h"
 
@@ -20,6 +21,13 @@ struct AugmentOptions {
   float shift = 0.04f;         // random shift in [-shift, shift] of the image size
   bool flip = true;            // random horizontal flip (probability 1/2)
   float color_jitter = 0.15f;  // brightness, contrast and per-channel gain jitter of domain B
+  // Probability that a domain-A input (a flat segmentation render) is repainted with random
+  // plausible appearance: per-region albedo around a random skin tone (lips, brows, hair,
+  // eye whites, irises by region name), a random smooth shading field, a random background and
+  // sensor noise. Its target stays the flat render, so D_A learns to undo the appearance and
+  // E sees real-looking inputs in both domains (domain randomization of the synthetic side).
+  // 0 is the plain setting of paper 000.
+  float randomize_a = 0.f;
 
   template <class V>
   void Visit(V&& v) {
@@ -31,6 +39,9 @@ struct AugmentOptions {
     v("flip", flip, "random horizontal flips");
     v("color_jitter", color_jitter,
       "brightness, contrast and per-channel gain jitter of domain B (0: none)");
+    v("randomize_a", randomize_a,
+      "probability that a domain-A input is repainted with random skin-like appearance "
+      "(its target stays the flat segmentation); 0: the plain setting");
   }
   bool Check(std::string* why) const;
 };
@@ -38,8 +49,30 @@ struct AugmentOptions {
 // From one uint8 RGB image [source_size, source_size, 3], writes `input` and `target` as float
 // RGB in [0, 1], [size, size, 3] (resampled bilinearly when the sizes differ). With
 // `jitter_colors`, the colour jitter applies to both (domain B: colours are not labels there).
+// With `input_image` (same size as `image`), the input is sampled from it instead, under the
+// same geometric augmentation (a repainted segmentation render, see RepaintSegmentation).
 void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentOptions& options,
-                 bool jitter_colors, Rng* rng, float* input, float* target);
+                 bool jitter_colors, Rng* rng, float* input, float* target,
+                 const uint8_t* input_image = nullptr);
+
+// What a segmentation region looks like on a person, from its name.
+enum class RegionKind { kSkin, kLips, kBrow, kHair, kSclera, kIris, kPupil, kMouth };
+RegionKind RegionKindOf(const std::string& region_name);
+
+// The flat region colours of a segmentation render and their kinds.
+struct SegmentationPalette {
+  std::vector<uint32_t> colors;     // packed 0xRRGGBB, one per region
+  std::vector<RegionKind> kinds;    // one per region
+  uint32_t background = 0;          // packed colour of the background
+};
+
+// Repaints a flat segmentation render (uint8 RGB [size, size, 3]) with a random appearance
+// drawn from `rng`: each region an albedo of its kind around one random skin tone, hair and
+// brow colour, eye colour, times a smooth random shading field, a random background (a colour
+// or a gradient), and Gaussian noise. Pixels whose colour is not in the palette take the
+// nearest palette colour's appearance. Writes uint8 RGB [size, size, 3] into `out`.
+void RepaintSegmentation(const uint8_t* image, int size, const SegmentationPalette& palette,
+                         Rng* rng, uint8_t* out);
 
 // Bilinear resampling of a uint8 RGB image to size x size floats in [0, 1] (no augmentation).
 void ResizeToFloat(const uint8_t* image, int source_size, int size, float* out);

@@ -418,12 +418,26 @@ LoadedModel LoadModel(const std::string& path) {
   return m;
 }
 
+// The expressions an example-based fit with hold-out sees: all but every holdout_every-th
+// (k % holdout_every == holdout_every - 1); all when holdout_every is 0.
+std::vector<int> SeenExpressions(int count, int holdout_every) {
+  std::vector<int> seen;
+  for (int k = 0; k < count; ++k) {
+    if (holdout_every == 0 || k % holdout_every != holdout_every - 1) seen.push_back(k);
+  }
+  return seen;
+}
+
 // ---------------------------------------------------------------------------------------------
 // [blendshapes.baselines]
 struct BlendshapesBaselinesOptions {
   std::string scans = "scans.h5";       // scan database
   std::string out = "baselines.h5";     // template (deformation transfer) and example-based shapes
   int threads = 0;                      // threads per rank (0: the cores divided among ranks)
+  // A second example-based fit that does not see every holdout_every-th expression of each
+  // person (expressions k with k % holdout_every == holdout_every - 1), so that all methods
+  // can also be scored on expressions no method has seen (0: no such fit).
+  int holdout_every = 3;
   assets::ExampleBasedOptions example;  // example-based rigging
 
   template <class V>
@@ -431,6 +445,9 @@ struct BlendshapesBaselinesOptions {
     v("scans", scans, "scan database (HDF5)");
     v("out", out, "output (HDF5): every person's template and example-based shapes");
     v("threads", threads, "threads per rank (0: the cores divided among the node's ranks)");
+    v("holdout_every", holdout_every,
+      "also fit example-based rigging without every n-th expression, for scoring on unseen "
+      "expressions (0: no such fit)");
     v("iterations", example.iterations, "example-based rigging: shape / weight alternations");
     v("shape_regularization", example.shape_regularization, "example-based rigging: beta, pull towards the transferred template");
     v("kappa", example.kappa, "example-based rigging: kappa of the per-vertex regularization weights");
@@ -440,6 +457,7 @@ struct BlendshapesBaselinesOptions {
   bool Check(std::string* why) const {
     if (scans.empty() || out.empty()) { *why = "scans and out must name files"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    if (holdout_every < 0 || holdout_every == 1) { *why = "holdout_every must be 0 or >= 2"; return false; }
     return example.Check(why);
   }
 };
@@ -467,7 +485,8 @@ void RunBlendshapesBaselines(const StageFlags& flags, AppState* state) {
   const int P = data.NumPeople(), V = data.tmpl.NumVertices(), N = data.tmpl.NumShapes();
   const dist::Range mine = dist::BlockRange(P, comm.rank(), comm.size());
   const int count = static_cast<int>(mine.end - mine.begin);
-  std::vector<Eigen::MatrixXf> transferred(count), example(count);
+  std::vector<Eigen::MatrixXf> transferred(count), example(count), holdout(count);
+  const std::vector<int> seen = SeenExpressions(static_cast<int>(data.alpha.rows()), o.holdout_every);
   o.example.threads = 1;
   const auto started = std::chrono::steady_clock::now();
   ParallelFor(0, count, ThreadsPerRank(o.threads), [&](int k) {
@@ -477,11 +496,23 @@ void RunBlendshapesBaselines(const StageFlags& flags, AppState* state) {
     transferred[k] = transfer.TransferDeltas(data.tmpl.deltas);
     example[k] = assets::FitExampleBasedRig(data.neutral[j], data.expressions[j], data.alpha, transferred[k],
                                             data.tmpl.deltas, moving, o.example).deltas;
+    if (o.holdout_every > 0) {
+      Eigen::MatrixXf expressions(data.expressions[j].rows(), static_cast<int>(seen.size()));
+      Eigen::MatrixXf alpha(static_cast<int>(seen.size()), data.alpha.cols());
+      for (size_t i = 0; i < seen.size(); ++i) {
+        expressions.col(i) = data.expressions[j].col(seen[i]);
+        alpha.row(i) = data.alpha.row(seen[i]);
+      }
+      holdout[k] = assets::FitExampleBasedRig(data.neutral[j], expressions, alpha, transferred[k],
+                                              data.tmpl.deltas, moving, o.example).deltas;
+    } else {
+      holdout[k] = example[k];
+    }
   });
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   std::vector<uint8_t> bytes;
   for (int k = 0; k < count; ++k) {
-    for (const Eigen::MatrixXf* m : {&transferred[k], &example[k]}) {
+    for (const Eigen::MatrixXf* m : {&transferred[k], &example[k], &holdout[k]}) {
       const uint8_t* b = reinterpret_cast<const uint8_t*>(m->data());
       bytes.insert(bytes.end(), b, b + m->size() * sizeof(float));
     }
@@ -494,12 +525,22 @@ void RunBlendshapesBaselines(const StageFlags& flags, AppState* state) {
     f.CreateFrames<float>("/baselines/example_based/deltas", {N, V, 3}, P, 1);
     f.SetAttribute("/baselines/template/deltas", "method", std::string("template shapes moved onto the neutral by deformation transfer"));
     f.SetAttribute("/baselines/example_based/deltas", "method", std::string("example-based facial rigging on the person's scans"));
+    if (o.holdout_every > 0) {
+      f.CreateFrames<float>("/baselines/example_based_holdout/deltas", {N, V, 3}, P, 1);
+      f.SetAttribute("/baselines/example_based_holdout/deltas", "method",
+                     std::string("example-based facial rigging on the person's scans except the held-out expressions"));
+      f.SetAttribute("/baselines/example_based_holdout/deltas", "holdout_every", static_cast<int64_t>(o.holdout_every));
+    }
     int person = 0;
     const size_t per = sizeof(float) * 3 * V * N;
     for (const auto& chunk : gathered) {
-      for (size_t at = 0; at + 2 * per <= chunk.size(); at += 2 * per, ++person) {
+      for (size_t at = 0; at + 3 * per <= chunk.size(); at += 3 * per, ++person) {
         f.WriteFrames<float>("/baselines/template/deltas", person, 1, reinterpret_cast<const float*>(chunk.data() + at));
         f.WriteFrames<float>("/baselines/example_based/deltas", person, 1, reinterpret_cast<const float*>(chunk.data() + at + per));
+        if (o.holdout_every > 0) {
+          f.WriteFrames<float>("/baselines/example_based_holdout/deltas", person, 1,
+                               reinterpret_cast<const float*>(chunk.data() + at + 2 * per));
+        }
       }
     }
     f.Commit();
@@ -592,14 +633,29 @@ void RunEvalBlendshapes(const StageFlags& flags, AppState* state) {
     io::H5File bf = io::H5File::OpenRead(o.baselines);
     const std::vector<int> moving = assets::MovingVertices(data.tmpl);
     const int P = data.NumPeople(), V = data.tmpl.NumVertices(), N = data.tmpl.NumShapes();
-    // [method][split] sums of per-scan errors (mm) and counts; shape distances to the truth.
-    const char* methods[3] = {"template", "example_based", "ours"};
-    double error[3][2] = {}, truth_distance[3][2] = {};
-    int scans_count[2] = {0, 0}, people_count[2] = {0, 0};
+    const bool has_truth = !data.truth.empty();
+    // Held-out expressions: those the example-based fit with hold-out did not see.
+    int holdout_every = 0;
+    if (bf.Exists("/baselines/example_based_holdout/deltas")) {
+      holdout_every = static_cast<int>(bf.GetIntAttribute("/baselines/example_based_holdout/deltas", "holdout_every"));
+    }
+    const int K = static_cast<int>(data.alpha.rows());
+    std::vector<int> unseen;
+    for (int k = 0; k < K && holdout_every > 0; ++k) {
+      if (k % holdout_every == holdout_every - 1) unseen.push_back(k);
+    }
+    // Methods: the template, example-based rigging, ours, and the true personal shapes (the
+    // floor that capture noise and unwanted motion leave; synthetic databases only).
+    const int M = has_truth ? 4 : 3;
+    const char* methods[4] = {"template", "example_based", "ours", "truth"};
+    // [method][split] sums of per-scan errors (mm): all expressions (paper 001 Table 2) and the
+    // held-out expressions; shape distances to the truth.
+    double error[4][2] = {}, unseen_error[4][2] = {}, truth_distance[4][2] = {};
+    int scans_count[2] = {0, 0}, unseen_count[2] = {0, 0}, people_count[2] = {0, 0};
     double inference_ms = 0;
     for (int j = 0; j < P; ++j) {
       const int s = data.split[j];
-      Eigen::MatrixXf shapes[3];
+      Eigen::MatrixXf shapes[4], holdout;
       for (int t = 0; t < 2; ++t) {
         shapes[t].resize(3 * V, N);
         bf.ReadFrames<float>(t == 0 ? "/baselines/template/deltas" : "/baselines/example_based/deltas", j, 1, shapes[t].data());
@@ -607,42 +663,80 @@ void RunEvalBlendshapes(const StageFlags& flags, AppState* state) {
       const auto started = std::chrono::steady_clock::now();
       shapes[2] = m.Personalize(data.neutral[j]);
       inference_ms += 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-      for (int t = 0; t < 3; ++t) {
+      if (has_truth) shapes[3] = data.truth[j];
+      Eigen::MatrixXf unseen_expressions(data.expressions[j].rows(), static_cast<int>(unseen.size()));
+      for (size_t i = 0; i < unseen.size(); ++i) unseen_expressions.col(i) = data.expressions[j].col(unseen[i]);
+      if (!unseen.empty()) {
+        holdout.resize(3 * V, N);
+        bf.ReadFrames<float>("/baselines/example_based_holdout/deltas", j, 1, holdout.data());
+      }
+      for (int t = 0; t < M; ++t) {
         const Eigen::VectorXd e = assets::ReconstructionErrors(data.neutral[j], shapes[t], data.expressions[j], moving);
         error[t][s] += 10.0 * e.sum();
-        if (!data.truth.empty()) truth_distance[t][s] += 10.0 * assets::MeanShapeDistance(shapes[t], data.truth[j], moving);
+        if (!unseen.empty()) {
+          const Eigen::MatrixXf& used = t == 1 ? holdout : shapes[t];
+          unseen_error[t][s] += 10.0 * assets::ReconstructionErrors(data.neutral[j], used, unseen_expressions, moving).sum();
+        }
+        if (has_truth) truth_distance[t][s] += 10.0 * assets::MeanShapeDistance(shapes[t], data.truth[j], moving);
       }
       scans_count[s] += static_cast<int>(data.expressions[j].cols());
+      unseen_count[s] += static_cast<int>(unseen.size());
       people_count[s] += 1;
     }
     auto mean = [&](double sum, int n) { return n ? sum / n : 0.0; };
     char buffer[4096];
     std::string json = "{";
-    for (int t = 0; t < 3; ++t) {
+    for (int t = 0; t < M; ++t) {
       std::snprintf(buffer, sizeof(buffer), "%s\"%s_train\": %.4f, \"%s_test\": %.4f", t ? ", " : "", methods[t],
                     mean(error[t][0], scans_count[0]), methods[t], mean(error[t][1], scans_count[1]));
       json += buffer;
     }
-    if (!data.truth.empty()) {
+    if (has_truth) {
       for (int t = 0; t < 3; ++t) {
         std::snprintf(buffer, sizeof(buffer), ", \"%s_vs_truth_train\": %.4f, \"%s_vs_truth_test\": %.4f", methods[t],
                       mean(truth_distance[t][0], people_count[0]), methods[t], mean(truth_distance[t][1], people_count[1]));
         json += buffer;
       }
     }
+    if (!unseen.empty()) {
+      json += ", \"unseen_expressions\": {";
+      for (int t = 0; t < M; ++t) {
+        std::snprintf(buffer, sizeof(buffer), "%s\"%s_train\": %.4f, \"%s_test\": %.4f", t ? ", " : "", methods[t],
+                      mean(unseen_error[t][0], unseen_count[0]), methods[t], mean(unseen_error[t][1], unseen_count[1]));
+        json += buffer;
+      }
+      std::snprintf(buffer, sizeof(buffer), ", \"holdout_every\": %d, \"expressions_per_person\": %d}",
+                    holdout_every, static_cast<int>(unseen.size()));
+      json += buffer;
+    }
     std::snprintf(buffer, sizeof(buffer), ", \"inference_ms_per_person\": %.2f, \"units\": \"mm\", \"train_people\": %d, "
                   "\"test_people\": %d, \"train_scans\": %d, \"test_scans\": %d}",
                   mean(inference_ms, P), people_count[0], people_count[1], scans_count[0], scans_count[1]);
     json += buffer;
-    const char* labels[3] = {"Template blendshapes (deformation transfer)", "Example-based rigging [Li et al. 2010]", "Ours (generator + tuning)"};
-    std::string table = "| Method | Training (mm) | Testing (mm) | vs truth, testing (mm) |\n| --- | --- | --- | --- |\n";
-    for (int t = 0; t < 3; ++t) {
-      std::snprintf(buffer, sizeof(buffer), "| %s | %.4f | %.4f | %.4f |\n", labels[t], mean(error[t][0], scans_count[0]),
+    const char* labels[4] = {"Template blendshapes (deformation transfer)", "Example-based rigging [Li et al. 2010]",
+                             "Ours (generator + tuning)", "True personal shapes (floor)"};
+    std::string table = "| Method | Training (mm) | Testing (mm) | vs truth, testing (mm) |";
+    if (!unseen.empty()) table += " Unseen expressions, testing (mm) |";
+    table += "\n| --- | --- | --- | --- |";
+    if (!unseen.empty()) table += " --- |";
+    table += "\n";
+    for (int t = 0; t < M; ++t) {
+      std::snprintf(buffer, sizeof(buffer), "| %s | %.4f | %.4f | %.4f |", labels[t], mean(error[t][0], scans_count[0]),
                     mean(error[t][1], scans_count[1]), mean(truth_distance[t][1], people_count[1]));
       table += buffer;
+      if (!unseen.empty()) {
+        std::snprintf(buffer, sizeof(buffer), " %.4f |", mean(unseen_error[t][1], unseen_count[1]));
+        table += buffer;
+      }
+      table += "\n";
     }
     FC_INFO("eval blendshapes: mean per-vertex reconstruction error over {} moving vertices, weights in [0, 1] by "
-            "bounded least squares; {} training and {} held-out people\n{}", moving.size(), people_count[0], people_count[1], table);
+            "bounded least squares; {} training and {} held-out people{}\n{}", moving.size(), people_count[0],
+            people_count[1],
+            unseen.empty() ? std::string()
+                           : "; unseen expressions: every " + std::to_string(holdout_every) +
+                                 "th, which the example-based fit of that column did not see",
+            table);
     if (!o.markdown.empty()) {
       std::ofstream md(o.markdown);
       md << table;

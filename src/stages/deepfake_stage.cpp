@@ -15,6 +15,7 @@
 // polylines and an overlay PNG on the real frames.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cinttypes>
 #include <csignal>
 #include <cstdio>
@@ -169,6 +170,22 @@ std::string FindImageDataset(const io::H5File& f, const std::string& requested) 
   }
   throw FileIOError(f.path() + ": none of the image datasets /frames/image, /frames/crop, "
                     "/samples/segmentation; name one with the dataset option");
+}
+
+// The frames' camera (/camera/intrinsics, when present) scaled to the translations, so that
+// the translations can be tracked as segmentation targets in the same image frame.
+void CopyScaledCamera(const io::H5File& frames, double scale, int size, io::H5File* out) {
+  if (!frames.Exists("/camera/intrinsics")) return;
+  std::vector<double> k = frames.ReadVector<double>("/camera/intrinsics", 4);
+  for (double& v : k) v *= scale;
+  out->WriteVector<double>("/camera/intrinsics", k);
+  out->SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
+  out->SetAttribute("/camera/intrinsics", "width", static_cast<double>(size));
+  out->SetAttribute("/camera/intrinsics", "height", static_cast<double>(size));
+  if (frames.HasAttribute("/camera/intrinsics", "distance_cm")) {
+    out->SetAttribute("/camera/intrinsics", "distance_cm",
+                      frames.GetDoubleAttribute("/camera/intrinsics", "distance_cm"));
+  }
 }
 
 // Frames usable for training: all, except ingest frames where no face was found.
@@ -353,7 +370,11 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
   dist::CoordinateExceptions(comm, [&] {
     shard_a = ReadShard(o.a, o.a_dataset, comm);
     shard_b = ReadShard(o.b, o.b_dataset, comm);
-    if (comm.IsMainRank()) regions = ReadRegions(io::H5File::OpenRead(o.a));
+    regions = ReadRegions(io::H5File::OpenRead(o.a));
+    if (o.augment.randomize_a > 0 && regions.names.empty()) {
+      throw FileIOError(o.a + ": randomize_a needs the region names and colours (/regions) of "
+                        "the segmentation renders");
+    }
     model = std::make_unique<nn::DeepfakeModel>(o.network, static_cast<uint64_t>(o.seed), o.device);
     trainer = std::make_unique<nn::DeepfakeTrainer>(model.get(), o.loss);
   });
@@ -441,12 +462,29 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
   Clock::time_point last_line = start;
   double window[nn::DeepfakeLosses::kCount] = {};
   int window_steps = 0;
+  // The flat colours of A's regions, for repainting A's inputs (augment.randomize_a).
+  nn::SegmentationPalette palette;
+  auto pack = [](float r, float g, float b) {
+    auto q = [](float v) { return static_cast<uint32_t>(std::clamp(std::lround(255.f * v), 0L, 255L)); };
+    return (q(r) << 16) | (q(g) << 8) | q(b);
+  };
+  for (size_t r = 0; r < regions.names.size(); ++r) {
+    palette.colors.push_back(pack(regions.colors(r, 0), regions.colors(r, 1), regions.colors(r, 2)));
+    palette.kinds.push_back(nn::RegionKindOf(regions.names[r]));
+  }
+  std::vector<uint8_t> repainted(3LL * shard_a.size * shard_a.size);
   for (int64_t step = start_step; step < o.steps; ++step) {
     Rng rng(static_cast<uint64_t>(o.seed), static_cast<uint64_t>(step) * 65536u + comm.rank());
     for (int i = 0; i < local_batch; ++i) {
       const int64_t ia = rng.UniformInt(shard_a.count()), ib = rng.UniformInt(shard_b.count());
+      const uint8_t* input_a = nullptr;
+      if (o.augment.randomize_a > 0 && rng.Uniform() < o.augment.randomize_a) {
+        nn::RepaintSegmentation(shard_a.image(ia), shard_a.size, palette, &rng, repainted.data());
+        input_a = repainted.data();
+      }
       nn::AugmentPair(shard_a.image(ia), shard_a.size, size, o.augment, false, &rng,
-                      &batch.input_a[i * image_floats], &batch.target_a[i * image_floats]);
+                      &batch.input_a[i * image_floats], &batch.target_a[i * image_floats],
+                      input_a);
       nn::AugmentPair(shard_b.image(ib), shard_b.size, size, o.augment, true, &rng,
                       &batch.input_b[i * image_floats], &batch.target_b[i * image_floats]);
     }
@@ -550,7 +588,10 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
     f.CreateFrames<float>("/frames/latent_of_translation", {latent}, num_frames, 16);
     f.SetAttribute("/frames/latent_of_translation", "meaning",
                    std::string("E(D(E(I))) of the stored 8-bit translation (paper 000 Sec. 9)"));
-    if (!output.resumed) WriteRegions(&f, regions);
+    if (!output.resumed) {
+      WriteRegions(&f, regions);
+      CopyScaledCamera(frames_file, static_cast<double>(size) / frame_size, size, &f);
+    }
     io::DoneMask mask(&f, num_frames);
     pending = mask.Pending();
     if (output.resumed) {

@@ -1,6 +1,7 @@
-// facecap export livelink | gltf: tracked animation out to the formats of the tools that use
-// it: a Live Link Face CSV (Unreal Engine, MetaHuman) and a glTF of the rig with its morph-target
-// animation.
+// facecap export livelink | gltf | overlay: tracked animation out to the formats of the tools
+// that use it: a Live Link Face CSV (Unreal Engine, MetaHuman), a glTF of the rig with its
+// morph-target animation, and an mp4 of the tracked rig drawn over the frames.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -10,7 +11,10 @@
 #include "io/hdf5.h"
 #include "io/mesh_io.h"
 #include "io/rig_io.h"
+#include "render/rasterizer.h"
 #include "rig/arkit.h"
+#include "rig/evaluate.h"
+#include "synth/appearance.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
 #include "util/errors.h"
@@ -213,6 +217,149 @@ void RunExportGltf(const StageFlags& flags, AppState* state) {
           rig.NumShapes(), matched, animation.size(), o.fps, o.out);
 }
 
+// [export.overlay]
+struct ExportOverlayOptions {
+  std::string track = "track.h5";    // tracking output (pose, translation, scale, weights)
+  std::string rig = "rig.h5";        // the rig that was tracked
+  std::string frames = "clip.h5";    // the frames that were tracked
+  std::string frames_dataset = "";   // image dataset ("": /frames/image, then /frames/crop)
+  std::string out = "overlay.mp4";   // mp4 file
+  float fps = 30.f;                  // frame rate of the video
+  float opacity = 0.45f;             // opacity of the segmentation colours over the frame
+  int scale = 2;                     // magnification of the video (nearest neighbour)
+  int count = 0;                     // frames to draw from the first (0: all tracked frames)
+
+  template <class V>
+  void Visit(V&& v) {
+    v("track", track, "tracking output (HDF5): /track/pose, translation, scale, weights");
+    v("rig", rig, "the rig that was tracked (HDF5)");
+    v("frames", frames, "file of the frames that were tracked (a wild clip or an ingest file)");
+    v("frames_dataset", frames_dataset,
+      "image dataset of the frames (empty: /frames/image, then /frames/crop)");
+    v("out", out, "mp4 file: each frame with the tracked rig drawn over it");
+    v("fps", fps, "frame rate of the video");
+    v("opacity", opacity, "opacity of the rig's segmentation colours over the frame, in [0, 1]");
+    v("scale", scale, "magnification of the video (nearest neighbour), 1 to 8");
+    v("count", count, "frames to draw from the first (0: all tracked frames)");
+  }
+  bool Check(std::string* why) const {
+    if (!(fps > 0.f && fps <= 1000.f)) { *why = "fps must be in (0, 1000]"; return false; }
+    if (!(opacity >= 0.f && opacity <= 1.f)) { *why = "opacity must be in [0, 1]"; return false; }
+    if (scale < 1 || scale > 8) { *why = "scale must be in [1, 8]"; return false; }
+    if (count < 0) { *why = "count must be >= 0"; return false; }
+    return true;
+  }
+};
+
+// The frame with the posed rig drawn over it: its segmentation colours blended in at
+// `opacity`, and its region borders and silhouette in white.
+Image8 DrawOverlay(const Image8& frame, const render::GBuffer& g, const rig::Rig& rig,
+                   float opacity) {
+  Image8 out = frame;
+  auto region_at = [&](int x, int y) {
+    const int t = g.triangle[g.PixelIndex(x, y)];
+    return t < 0 ? -1 : rig.triangle_region[t];
+  };
+  for (int y = 0; y < g.height; ++y) {
+    for (int x = 0; x < g.width; ++x) {
+      const int r = region_at(x, y);
+      if (r < 0) continue;
+      const bool border = (x + 1 < g.width && region_at(x + 1, y) != r) ||
+                          (y + 1 < g.height && region_at(x, y + 1) != r) ||
+                          (x > 0 && region_at(x - 1, y) < 0) || (y > 0 && region_at(x, y - 1) < 0);
+      const Eigen::Vector3f c = border ? Eigen::Vector3f::Ones() : rig.regions[r].color;
+      const float a = border ? 1.f : opacity;
+      for (int k = 0; k < 3; ++k) {
+        const float v = (1.f - a) * frame.at(x, y, k) + a * 255.f * c[k];
+        out.at(x, y, k) = static_cast<uint8_t>(std::clamp(std::lround(v), 0L, 255L));
+      }
+    }
+  }
+  return out;
+}
+
+void RunExportOverlay(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<ExportOverlayOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  std::string why;
+  if (!o.Check(&why)) throw InvalidInputError("export overlay: " + why);
+  const rig::Rig rig = io::ReadRigFile(o.rig);
+  io::H5File track = io::H5File::OpenRead(o.track);
+  const std::vector<std::string> names = track.ReadStrings("/track/shape_names");
+  const int64_t tracked = track.DatasetShape("/track/pose")[0];
+  const auto pose = track.ReadMatrix<float>("/track/pose", tracked, 3);
+  const auto translation = track.ReadMatrix<float>("/track/translation", tracked, 3);
+  const std::vector<float> scale = track.ReadVector<float>("/track/scale", tracked);
+  const auto weights =
+      track.ReadMatrix<float>("/track/weights", tracked, static_cast<int64_t>(names.size()));
+  const std::vector<double> k = track.ReadVector<double>("/camera/intrinsics", 4);
+  std::vector<int> shape_of(names.size(), -1);  // tracked column -> rig shape
+  for (size_t t = 0; t < names.size(); ++t) shape_of[t] = rig.ShapeIndex(names[t]);
+
+  io::H5File frames_file = io::H5File::OpenRead(o.frames);
+  std::string dataset = o.frames_dataset;
+  if (dataset.empty()) {
+    for (const char* name : {"/frames/image", "/frames/crop"}) {
+      if (frames_file.Exists(name)) {
+        dataset = name;
+        break;
+      }
+    }
+    if (dataset.empty()) {
+      throw FileIOError(o.frames + ": neither /frames/image nor /frames/crop; name the dataset "
+                        "with frames_dataset");
+    }
+  }
+  const io::Shape shape = frames_file.CheckShape(dataset, {-1, -1, -1, 3});
+  const int64_t count = std::min<int64_t>(o.count > 0 ? o.count : tracked, std::min(tracked, shape[0]));
+  if (count < 1) throw FileIOError(o.track + ": no tracked frame to draw");
+  const int H = static_cast<int>(shape[1]), W = static_cast<int>(shape[2]);
+  // The tracking camera, scaled to the frames (tracking may have run on smaller targets).
+  const double track_width = track.HasAttribute("/camera/intrinsics", "width")
+                                ? track.GetDoubleAttribute("/camera/intrinsics", "width")
+                                : 2.0 * k[2];  // older files: the principal point is central
+  render::Camera camera;
+  camera.width = W;
+  camera.height = H;
+  const double s = W / track_width;
+  camera.fx = static_cast<float>(k[0] * s);
+  camera.fy = static_cast<float>(k[1] * s);
+  camera.cx = static_cast<float>(k[2] * s);
+  camera.cy = static_cast<float>(k[3] * s);
+
+  const rig::RigEvaluator evaluator(rig);
+  rig::Vertices posed;
+  render::GBuffer g;
+  render::RasterizeOptions raster;
+  raster.barycentrics = false;
+  std::vector<Image8> video;
+  video.reserve(count);
+  Image8 frame(W, H, 3);
+  for (int64_t f = 0; f < count; ++f) {
+    frames_file.ReadFrames<uint8_t>(dataset, f, 1, frame.data.data());
+    rig::RigidPose p;
+    p.pitch = pose(f, 0);
+    p.yaw = pose(f, 1);
+    p.roll = pose(f, 2);
+    p.translation = translation.row(f).transpose();
+    p.scale = scale[f];
+    Eigen::VectorXf w = Eigen::VectorXf::Zero(rig.NumShapes());
+    for (size_t t = 0; t < names.size(); ++t) {
+      if (shape_of[t] >= 0) w[shape_of[t]] = weights(f, t);
+    }
+    evaluator.EvaluatePosed(p, w, &posed);
+    render::Rasterize(posed, rig.triangles, camera, &g, raster);
+    video.push_back(synth::UpscaleNearest(DrawOverlay(frame, g, rig, o.opacity), o.scale));
+  }
+  std::filesystem::path parent = std::filesystem::path(o.out).parent_path();
+  if (!parent.empty()) std::filesystem::create_directories(parent);
+  const std::string codec = synth::WriteVideo(o.out, video, o.fps);
+  FC_INFO("export overlay: {} frames ({}x{}, {}) -> {}", count, W * o.scale, H * o.scale, codec,
+          o.out);
+}
+
 }  // namespace
 
 void RegisterExport(CLI::App* app, AppState* state) {
@@ -228,6 +375,11 @@ void RegisterExport(CLI::App* app, AppState* state) {
       "glTF (.glb/.gltf) of the rig with one morph target per shape and the tracked weights as "
       "a morph-target animation",
       RunExportGltf);
+  AddStage<ExportOverlayOptions>(
+      exp, state, "overlay", "export.overlay", "export overlay",
+      "mp4 of the tracked rig drawn over the frames it was tracked on: segmentation colours "
+      "blended in, region borders and silhouette in white",
+      RunExportOverlay);
 }
 
 }  // namespace facecap::stages

@@ -1,5 +1,7 @@
-// facecap export: Live Link Face CSV columns and values, glTF animation that re-imports.
+// facecap export: Live Link Face CSV columns and values, glTF animation that re-imports, the
+// overlay video drawn where the rig is.
 #include <algorithm>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 
@@ -92,6 +94,58 @@ TEST(ExportGltf, AnimationReimportsWithTheRigsMorphTargets) {
   const rig::Rig back = io::ImportRigFromGltf(glb);
   EXPECT_EQ(back.NumShapes(), 52);
   EXPECT_GE(back.ShapeIndex("jawOpen"), 0);
+}
+
+// The overlay of a track that equals a clip's truth, at full opacity, shows the clip's own
+// segmentation render: decoded from the mp4 (ffmpeg), most covered pixels have its colours.
+TEST(ExportOverlay, DrawsTheTrackedRigWhereTheFaceIs) {
+  testing::TempDir dir;
+  const std::string rig = dir.File("rig.h5"), clip = dir.File("clip.h5");
+  ASSERT_EQ(RunFacecap("rig demo --out " + rig).code, 0);
+  auto r = RunFacecap("synth clip --rig " + rig + " --frames 6 --size 64 --out " + clip);
+  ASSERT_EQ(r.code, 0) << r.output;
+  io::H5File c = io::H5File::OpenRead(clip);
+  const int F = 6, S = 52;
+  const std::string track = dir.File("track.h5");
+  {
+    io::H5File t = io::H5File::CreateAtomic(track);
+    t.WriteStrings("/track/shape_names", c.ReadStrings("/frames/shape_names"));
+    t.WriteMatrix("/track/weights", c.ReadMatrix<float>("/frames/weights", F, S));
+    t.WriteMatrix("/track/pose", c.ReadMatrix<float>("/frames/pose", F, 3));
+    t.WriteMatrix("/track/translation", c.ReadMatrix<float>("/frames/translation", F, 3));
+    t.WriteVector<float>("/track/scale", std::vector<float>(F, 1.f));
+    t.WriteVector<double>("/camera/intrinsics", c.ReadVector<double>("/camera/intrinsics", 4));
+    t.SetAttribute("/camera/intrinsics", "width", 64.0);
+    t.Commit();
+  }
+  const std::string mp4 = dir.File("overlay.mp4");
+  r = RunFacecap("export overlay --track " + track + " --rig " + clip + " --frames " + clip +
+                 " --opacity 1 --scale 1 --out " + mp4);
+  ASSERT_EQ(r.code, 0) << r.output;
+  const std::string raw = dir.File("overlay.rgb");
+  ASSERT_EQ(std::system(("ffmpeg -loglevel error -y -i " + mp4 +
+                         " -f rawvideo -pix_fmt rgb24 " + raw).c_str()), 0);
+  std::ifstream in(raw, std::ios::binary);
+  std::vector<uint8_t> decoded((std::istreambuf_iterator<char>(in)), {});
+  ASSERT_EQ(decoded.size(), static_cast<size_t>(F) * 64 * 64 * 3);
+  std::vector<uint8_t> truth(decoded.size());
+  c.ReadFrames<uint8_t>("/frames/segmentation", 0, F, truth.data());
+  int face = 0, close = 0;
+  for (size_t p = 0; p < decoded.size(); p += 3) {
+    if (truth[p] == 0 && truth[p + 1] == 0 && truth[p + 2] == 0) continue;  // background
+    ++face;
+    int d = 0;
+    for (int k = 0; k < 3; ++k) d = std::max(d, std::abs(int{decoded[p + k]} - int{truth[p + k]}));
+    if (d < 48) ++close;  // video compression and the white borders aside
+  }
+  ASSERT_GT(face, F * 500);
+  EXPECT_GT(close, 0.6 * face) << close << " of " << face;
+}
+
+TEST(ExportOverlay, BadOptionsAreUsageErrors) {
+  testing::TempDir dir;
+  auto r = RunFacecap("export overlay --opacity 2 --out " + dir.File("x.mp4"));
+  EXPECT_EQ(r.code, kExitUsage) << r.output;
 }
 
 }  // namespace

@@ -192,6 +192,8 @@ void RunTrack(const StageFlags& flags, AppState* state) {
       f.WriteVector<double>("/camera/intrinsics", {c.fx, c.fy, c.cx, c.cy});
       f.SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
       f.SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(distance));
+      f.SetAttribute("/camera/intrinsics", "width", static_cast<double>(c.width));
+      f.SetAttribute("/camera/intrinsics", "height", static_cast<double>(c.height));
       f.SetAttribute("/track", "targets", o.targets);
       f.SetAttribute("/track", "targets_dataset", info.images);
     }
