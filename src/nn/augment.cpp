@@ -162,7 +162,7 @@ void RepaintSegmentation(const uint8_t* image, int size, const SegmentationPalet
         c = Scaled(skin, uniform(0.9, 1.08), uniform(0.9, 1.06), uniform(0.9, 1.06));
         break;
       case RegionKind::kLips:
-        c = Scaled(skin, uniform(0.75, 0.95), uniform(0.45, 0.7), uniform(0.5, 0.75));
+        c = Scaled(skin, uniform(0.8, 0.95), uniform(0.45, 0.6), uniform(0.5, 0.65));
         break;
       case RegionKind::kBrow: c = Mix(hair, skin, uniform(0.0, 0.5)); break;
       case RegionKind::kHair: c = hair; break;

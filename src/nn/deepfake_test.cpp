@@ -247,5 +247,56 @@ TEST(Augment, NeutralOptionsReproduceTheImage) {
   }
 }
 
+// A repainted segmentation keeps every region's pixels together (one albedo under smooth
+// shading), paints lips redder than skin and the pupil darkest, and changes nothing but the
+// input: the target of AugmentPair stays the flat render.
+TEST(Augment, RepaintedSegmentationKeepsRegionsAndTheTarget) {
+  constexpr int n = 32;
+  // Left half skin, a lip band, a pupil square, background on the right.
+  const uint32_t skin = 0xE0A080, lips = 0x20C020, pupil = 0x2020E0;
+  std::vector<uint8_t> image(3 * n * n, 0);
+  auto paint = [&](int x0, int y0, int x1, int y1, uint32_t c) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x)
+        for (int k = 0; k < 3; ++k) image[3 * (y * n + x) + k] = (c >> (16 - 8 * k)) & 255;
+  };
+  paint(0, 0, n / 2, n, skin);
+  paint(4, 20, 12, 24, lips);
+  paint(4, 6, 8, 10, pupil);
+  SegmentationPalette palette;
+  palette.colors = {skin, lips, pupil};
+  palette.kinds = {RegionKindOf("skin"), RegionKindOf("upper_lip"), RegionKindOf("pupil")};
+  EXPECT_EQ(palette.kinds[1], RegionKind::kLips);
+  EXPECT_EQ(palette.kinds[2], RegionKind::kPupil);
+  for (uint64_t seed = 1; seed <= 5; ++seed) {
+    std::vector<uint8_t> out(image.size()), again(image.size());
+    Rng rng(seed, 0), rng2(seed, 0);
+    RepaintSegmentation(image.data(), n, palette, &rng, out.data());
+    RepaintSegmentation(image.data(), n, palette, &rng2, again.data());
+    EXPECT_EQ(out, again) << "a function of the seed";
+    auto mean = [&](int x0, int y0, int x1, int y1, int k) {
+      double sum = 0;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) sum += out[3 * (y * n + x) + k];
+      return sum / ((x1 - x0) * (y1 - y0));
+    };
+    // Neighbouring skin pixels differ only by smooth shading and noise.
+    EXPECT_NEAR(mean(0, 12, 4, 16, 0), mean(4, 12, 8, 16, 0), 60.0);
+    const double skin_rg = mean(0, 12, 4, 16, 0) / std::max(1.0, mean(0, 12, 4, 16, 1));
+    const double lips_rg = mean(4, 20, 12, 24, 0) / std::max(1.0, mean(4, 20, 12, 24, 1));
+    EXPECT_GT(lips_rg, skin_rg) << "seed " << seed;
+    EXPECT_LT(mean(4, 6, 8, 10, 0) + mean(4, 6, 8, 10, 1), mean(0, 12, 4, 16, 0) + mean(0, 12, 4, 16, 1));
+    // The target of a pair whose input is repainted is the flat render.
+    AugmentOptions o;
+    std::vector<float> input(image.size()), target(image.size()), plain_input(image.size()),
+        plain_target(image.size());
+    Rng a(seed, 1), b(seed, 1);
+    AugmentPair(image.data(), n, n, o, false, &a, input.data(), target.data(), out.data());
+    AugmentPair(image.data(), n, n, o, false, &b, plain_input.data(), plain_target.data());
+    EXPECT_EQ(target, plain_target);
+    EXPECT_NE(input, plain_input);
+  }
+}
+
 }  // namespace
 }  // namespace facecap::nn
