@@ -31,13 +31,16 @@ int ThreadsPerRank(int requested) {
 
 namespace {
 
-// Fault injection for the restart tests: FACECAP_FAULT_AFTER_FRAMES=N makes rank 0, once N
-// frames are committed, either kill itself (FACECAP_FAULT_SIGNAL=KILL: no checkpoint beyond what
-// is on disk, as a crash or an OOM kill) or send itself SIGTERM (the default: as Slurm does
-// before a time limit). Unset in normal use.
-void MaybeInjectFault(int64_t committed) {
+// Fault injection for the restart tests: FACECAP_FAULT_AFTER_FRAMES=N makes rank
+// FACECAP_FAULT_RANK (default 0), once N frames are committed, either kill itself
+// (FACECAP_FAULT_SIGNAL=KILL: no checkpoint beyond what is on disk, as a crash, an OOM kill or
+// a lost node) or send itself SIGTERM (the default: as Slurm does before a time limit). Unset
+// in normal use.
+void MaybeInjectFault(int rank, int64_t committed) {
   static const char* after = std::getenv("FACECAP_FAULT_AFTER_FRAMES");
   if (!after || committed < std::atoll(after)) return;
+  const char* fault_rank = std::getenv("FACECAP_FAULT_RANK");
+  if (rank != (fault_rank ? std::atoi(fault_rank) : 0)) return;
   static bool fired = false;
   if (fired) return;
   fired = true;
@@ -127,8 +130,8 @@ int64_t RunFrameLoop(const dist::Comm& comm, std::vector<int64_t> pending, int64
                                   pending.begin() + round_begin + round_size);
       commit(frames, ordered);
       progress.Update(total - num_pending + round_begin + round_size);
-      MaybeInjectFault(total - num_pending + round_begin + round_size);
     });
+    MaybeInjectFault(comm.rank(), total - num_pending + round_begin + round_size);
     if (comm.AnyTrue(StopRequested()) && round_begin + round_size < num_pending) {
       throw InterruptedError(options.what + ": stopped by signal after " +
                              std::to_string(total - num_pending + round_begin + round_size) +

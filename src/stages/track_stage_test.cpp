@@ -96,6 +96,25 @@ TEST_F(TrackStage, KilledRunContinuesToTheUninterruptedResult) {
   ExpectSameDatasets(straight, killed);
 }
 
+// One rank of three is killed (SIGKILL: no checkpoint, as a crash or a lost node) after a few
+// frames are committed; mpirun takes the others down. The rerun on two ranks continues from
+// the committed frames, and no frame is lost or solved twice: the result equals the
+// uninterrupted run.
+TEST_F(TrackStage, RankKilledMidRunOnThreeRanksContinuesOnTwo) {
+  const std::string straight = File("straight3.h5"), killed = File("killed3.h5");
+  ASSERT_EQ(RunFacecap(Args(straight)).code, 0);
+  auto crash = RunFacecap(Args(killed), 3,
+                          "FACECAP_FAULT_AFTER_FRAMES=3 FACECAP_FAULT_RANK=1 FACECAP_FAULT_SIGNAL=KILL");
+  EXPECT_NE(crash.code, 0) << crash.output;
+  EXPECT_FALSE(std::filesystem::exists(killed));
+  ASSERT_TRUE(std::filesystem::exists(killed + ".partial"));
+  auto rerun = RunFacecap(Args(killed), 2);
+  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  EXPECT_NE(rerun.output.find("continuing"), std::string::npos) << rerun.output;
+  EXPECT_NE(rerun.output.find("3 of 5"), std::string::npos) << rerun.output;
+  ExpectSameDatasets(straight, killed);
+}
+
 TEST_F(TrackStage, RejectsBadOptions) {
   EXPECT_EQ(RunFacecap(Args(File("bad.h5")) + " --init sideways").code, kExitUsage);
   EXPECT_EQ(RunFacecap(Args(File("bad.h5")) + " --objective pixels").code, kExitUsage);
