@@ -26,8 +26,8 @@ namespace facecap::curate {
 // wild clip, `facecap render --pitch-deg/--yaw-deg`): pitch > 0 tilts the face down (the nose
 // moves down in the image), yaw > 0 turns the face to the subject's left (the nose moves right
 // in the image). The template is rotated by R = Ry(yaw) Rx(pitch) as rig::RigidPose rotates a
-// head; roll is in-plane and removed by the 2D alignment. Its depths are calibrated on the
-// demo rig's landmark vertices (features.cpp, kStableDepth).
+// head; roll is in-plane and removed by the 2D alignment. Its depth profile and how it was
+// checked against synthetic truth: features.cpp, kStableDepth.
 struct PoseEstimate {
   double pitch_deg = 0.0;
   double yaw_deg = 0.0;
