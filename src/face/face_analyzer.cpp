@@ -31,6 +31,14 @@ bool FaceAnalyzerOptions::Check(std::string* why) const {
     *why = "detect_threshold must be in [-5, 5]";
     return false;
   }
+  if (small_face_size < 0) {
+    *why = "small_face_size must be >= 0";
+    return false;
+  }
+  if (small_face_max_side != 0 && small_face_max_side < 80) {
+    *why = "small_face_max_side must be 0 (no small-face search) or >= 80 (the detector window)";
+    return false;
+  }
   return true;
 }
 
@@ -111,40 +119,84 @@ std::unique_ptr<FaceAnalyzer> FaceAnalyzer::Clone() const {
 
 const FaceAnalyzerOptions& FaceAnalyzer::options() const { return impl_->options; }
 
+namespace {
+
+// dlib's frontal detector scans an 80 x 80 window over an image pyramid.
+constexpr double kDetectorWindow = 80.0;
+
+// Detection pixels per source pixel of the first search.
+double FirstScale(const FaceAnalyzerOptions& o, int width, int height) {
+  const int side = std::max(width, height);
+  double scale = 1.0;
+  if (o.detect_max_side > 0 && side > o.detect_max_side) scale = static_cast<double>(o.detect_max_side) / side;
+  return scale * std::pow(2.0, o.detect_upsample);
+}
+
+// Detection pixels per source pixel of the small-face search (0: none).
+double SmallFaceScale(const FaceAnalyzerOptions& o, int width, int height) {
+  if (o.small_face_size <= 0 || o.small_face_max_side <= 0) return 0.0;
+  const double first = FirstScale(o, width, height);
+  if (kDetectorWindow / first <= o.small_face_size) return 0.0;  // the first search sees them
+  const int side = std::max(width, height);
+  const double scale = std::min(kDetectorWindow / o.small_face_size,
+                                static_cast<double>(o.small_face_max_side) / side);
+  return scale > 1.05 * first ? scale : 0.0;
+}
+
+}  // namespace
+
+double FaceAnalyzer::SmallestFace(int width, int height) const {
+  return kDetectorWindow / FirstScale(impl_->options, width, height);
+}
+
+double FaceAnalyzer::SmallestFaceWithSearch(int width, int height) const {
+  const double scale = SmallFaceScale(impl_->options, width, height);
+  return scale > 0.0 ? kDetectorWindow / scale : SmallestFace(width, height);
+}
+
 std::vector<FaceBox> FaceAnalyzer::Detect(const Image8& image) {
   const cv::Mat gray = ToGray(image);
-  const int side = std::max(gray.cols, gray.rows);
-  const int max_side = impl_->options.detect_max_side;
-  double scale = 1.0;  // detection pixels per source pixel
-  cv::Mat small = gray;
-  if (max_side > 0 && side > max_side) {
-    scale = static_cast<double>(max_side) / side;
-    cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
-    scale = static_cast<double>(small.cols) / gray.cols;
-  }
-  std::vector<dlib::rect_detection> detections;
-  const double threshold = impl_->options.detect_threshold;
-  if (impl_->options.detect_upsample == 0) {
-    dlib::cv_image<unsigned char> view(small);
-    impl_->detector(view, detections, threshold);
-  } else {
-    dlib::array2d<unsigned char> up;
-    dlib::assign_image(up, dlib::cv_image<unsigned char>(small));
-    for (int i = 0; i < impl_->options.detect_upsample; ++i) {
-      dlib::pyramid_up(up);
-      scale *= 2.0;
+  const FaceAnalyzerOptions& o = impl_->options;
+  const double threshold = o.detect_threshold;
+  // Detection at `target` detection pixels per source pixel (then `upsample` pyramid_up
+  // doublings): the image resized (area filter down, bilinear up), boxes in source pixels.
+  auto detect_at = [&](double target, int upsample) {
+    cv::Mat work = gray;
+    double scale = 1.0;
+    if (std::abs(target - 1.0) > 1e-9) {
+      cv::resize(gray, work, cv::Size(), target, target, target < 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
+      scale = static_cast<double>(work.cols) / gray.cols;
     }
-    impl_->detector(up, detections, threshold);
-  }
-  std::vector<FaceBox> boxes;
-  for (const dlib::rect_detection& d : detections) {
-    FaceBox b;
-    b.x = static_cast<float>(d.rect.left() / scale);
-    b.y = static_cast<float>(d.rect.top() / scale);
-    b.width = static_cast<float>(d.rect.width() / scale);
-    b.height = static_cast<float>(d.rect.height() / scale);
-    b.score = static_cast<float>(d.detection_confidence);
-    boxes.push_back(b);
+    std::vector<dlib::rect_detection> detections;
+    if (upsample == 0) {
+      dlib::cv_image<unsigned char> view(work);
+      impl_->detector(view, detections, threshold);
+    } else {
+      dlib::array2d<unsigned char> up;
+      dlib::assign_image(up, dlib::cv_image<unsigned char>(work));
+      for (int i = 0; i < upsample; ++i) {
+        dlib::pyramid_up(up);
+        scale *= 2.0;
+      }
+      impl_->detector(up, detections, threshold);
+    }
+    std::vector<FaceBox> boxes;
+    for (const dlib::rect_detection& d : detections) {
+      FaceBox b;
+      b.x = static_cast<float>(d.rect.left() / scale);
+      b.y = static_cast<float>(d.rect.top() / scale);
+      b.width = static_cast<float>(d.rect.width() / scale);
+      b.height = static_cast<float>(d.rect.height() / scale);
+      b.score = static_cast<float>(d.detection_confidence);
+      boxes.push_back(b);
+    }
+    return boxes;
+  };
+  const double first = FirstScale(o, gray.cols, gray.rows) / std::pow(2.0, o.detect_upsample);
+  std::vector<FaceBox> boxes = detect_at(std::min(1.0, first), o.detect_upsample);
+  if (boxes.empty()) {
+    const double small = SmallFaceScale(o, gray.cols, gray.rows);
+    if (small > 0.0) boxes = detect_at(small, 0);
   }
   std::stable_sort(boxes.begin(), boxes.end(),
                    [](const FaceBox& a, const FaceBox& b) { return a.Area() > b.Area(); });

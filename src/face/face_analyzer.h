@@ -29,6 +29,12 @@ struct FaceAnalyzerOptions {
   int detect_upsample = 0;
   // Added to the detector's threshold: > 0 keeps only confident faces, < 0 finds more.
   double detect_threshold = 0.0;
+  // Small faces: when an image gives no face at the detection scale above and that scale
+  // cannot find faces as narrow as small_face_size source pixels, it is searched once more at
+  // the scale that can (upsampled where needed), with the detection image's longer side at
+  // most small_face_max_side. 0 (either): no second search.
+  int small_face_size = 0;
+  int small_face_max_side = 1280;
 
   bool Check(std::string* why) const;
 };
@@ -63,6 +69,10 @@ class FaceAnalyzer {
 
   // Faces in `image` (8-bit, 1 or 3 channels), in source pixels, largest first.
   std::vector<FaceBox> Detect(const Image8& image);
+  // About the narrowest face (pixels) Detect finds in a width x height image: at the first
+  // scale, and with the small-face search (equal when there is none).
+  double SmallestFace(int width, int height) const;
+  double SmallestFaceWithSearch(int width, int height) const;
   // The 68 landmarks (iBUG order, source pixels) of the face in `box`.
   Landmarks FitLandmarks(const Image8& image, const FaceBox& box) const;
 

@@ -147,5 +147,34 @@ TEST(FaceAnalyzerTest, TinyFacesAreNotDetectedAtTheDefaultScale) {
   EXPECT_FALSE(Analyzer().Detect(tiny[0]).empty());
 }
 
+TEST(FaceAnalyzerTest, SmallFaceSearchFindsFacesBelowTheFirstScale) {
+  const Image8 photo = LoadRealPhoto();
+  ASSERT_FALSE(photo.empty());
+  // The portrait 120 pixels wide (a face of about 50) in a 640x480 frame: the first search
+  // (detect_max_side 480) sees faces of about 107 pixels and more.
+  Image8 frame(640, 480, 3, 110);
+  for (int y = 0; y < 140; ++y)
+    for (int x = 0; x < 120; ++x)
+      for (int c = 0; c < 3; ++c)
+        frame.at(300 + x, 200 + y, c) = photo.at(x * photo.width / 120, y * photo.height / 140, c);
+  EXPECT_TRUE(Analyzer().Detect(frame).empty());
+  FaceAnalyzerOptions options;
+  options.small_face_size = 32;
+  FaceAnalyzer small(options);
+  EXPECT_NEAR(small.SmallestFace(640, 480), 80.0 * 640 / 480, 0.5);
+  EXPECT_NEAR(small.SmallestFaceWithSearch(640, 480), 40.0, 0.5);  // 2x: 1280, the side limit
+  const std::vector<FaceBox> faces = small.Detect(frame);
+  ASSERT_EQ(faces.size(), 1u);
+  EXPECT_GT(faces[0].width, 30.f);
+  EXPECT_LT(faces[0].width, 70.f);
+  EXPECT_GT(faces[0].CenterX(), 300.f);
+  EXPECT_LT(faces[0].CenterX(), 420.f);
+  // A frame where the first search finds the face is not searched again: same boxes.
+  const std::vector<Image8> big = CameraMoveClip(photo, 640, 480, 1);
+  const std::vector<FaceBox> a = Analyzer().Detect(big[0]), b = small.Detect(big[0]);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].width, b[i].width);
+}
+
 }  // namespace
 }  // namespace facecap::face

@@ -1,6 +1,7 @@
 // facecap ingest: video or images to frames.h5 (see ingest_stage.h).
 #include "stages/ingest_stage.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -39,6 +40,10 @@ bool IngestOptions::Check(std::string* why) const {
   if (end_s >= 0.0 && end_s <= start_s) { *why = "end_s must be after start_s (or < 0)"; return false; }
   if (max_frames < 0) { *why = "max_frames must be >= 0"; return false; }
   if (min_face_size < 0) { *why = "min_face_size must be >= 0"; return false; }
+  if (detect_small_max_side != 0 && detect_small_max_side < 80) {
+    *why = "detect_small_max_side must be 0 (no small-face search) or >= 80";
+    return false;
+  }
   if (max_image_pixels < 10000) { *why = "max_image_pixels must be >= 10000"; return false; }
   if (batch < 1) { *why = "batch must be >= 1"; return false; }
   if (threads < 0) { *why = "threads must be >= 0"; return false; }
@@ -55,6 +60,8 @@ face::FaceAnalyzerOptions IngestOptions::Analyzer() const {
   a.detect_max_side = detect_max_side;
   a.detect_upsample = detect_upsample;
   a.detect_threshold = detect_threshold;
+  a.small_face_size = std::max(20, min_face_size / 2);
+  a.small_face_max_side = detect_small_max_side;
   return a;
 }
 
@@ -298,6 +305,24 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
     const std::vector<float> boxes = f.Read<float>("/detections/boxes", {n, kMaxFaces, 5});
     const std::vector<int32_t> count = f.ReadVector<int32_t>("/detections/count", n);
     const std::vector<int32_t> provisional = f.ReadVector<int32_t>("/frames/status", n);
+    // What the detector can see: faces narrower than this are not found and count as no_face.
+    const std::vector<int32_t> image_size = f.Read<int32_t>("/frames/image_size", {n, 2});
+    for (int64_t k = 0; k < n; ++k) {
+      if (provisional[k] == kFrameUnreadable) continue;
+      double w = image_size[2 * k], h = image_size[2 * k + 1];
+      const double budget = std::sqrt(static_cast<double>(o.max_image_pixels) / std::max(1.0, w * h));
+      const double to_source = budget < 1.0 ? 1.0 / budget : 1.0;  // source px per processed px
+      w /= to_source;
+      h /= to_source;
+      const double first = analyzers[0]->SmallestFace(static_cast<int>(w), static_cast<int>(h)) * to_source;
+      const double smallest = analyzers[0]->SmallestFaceWithSearch(static_cast<int>(w), static_cast<int>(h)) * to_source;
+      FC_INFO("ingest: at {}x{}{} faces narrower than about {:.0f} px are not found ({:.0f} px "
+              "before the small-face search); narrower than min_face_size {} px: too small",
+              image_size[2 * k], image_size[2 * k + 1], o.video.empty() ? " (the first image)" : "",
+              smallest, first, o.min_face_size);
+      if (!o.video.empty()) f.SetAttribute("/frames", "smallest_face_found", smallest);
+      break;
+    }
     std::vector<std::vector<face::FaceBox>> faces(n);
     for (int64_t k = 0; k < n; ++k) {
       for (int j = 0; j < count[k]; ++j) {
@@ -305,8 +330,14 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
         faces[k].push_back(face::FaceBox{b[0], b[1], b[2], b[3], b[4]});
       }
     }
-    const std::vector<int> chosen =
-        face::FollowSubject(faces, face::SubjectTrackerOptions{o.track_min_iou, o.track_max_gap});
+    // A video follows one subject from frame to frame; the images of a folder are unrelated
+    // stills (other sizes, framings, people), so each keeps its largest face.
+    std::vector<int> chosen(n, -1);
+    if (o.video.empty()) {
+      for (int64_t k = 0; k < n; ++k) chosen[k] = faces[k].empty() ? -1 : 0;
+    } else {
+      chosen = face::FollowSubject(faces, face::SubjectTrackerOptions{o.track_min_iou, o.track_max_gap});
+    }
     for (int64_t k = 0; k < n; ++k) {
       if (provisional[k] == kFrameUnreadable) {
         plan_status[k] = kFrameUnreadable;

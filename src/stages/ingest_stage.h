@@ -4,7 +4,8 @@
 //
 // Three passes, so that the output is the same for any number of ranks:
 //   1. detect (per frame, spread across ranks): decode, find all faces;
-//   2. follow the subject (rank 0, sequential over boxes only): face::FollowSubject;
+//   2. follow the subject (rank 0, sequential over boxes only): face::FollowSubject for a
+//      video; the images of a folder are unrelated stills, each with its largest face;
 //   3. landmarks and crops (per frame, spread across ranks) for the subject's face.
 // Both per-frame passes are resumable (done masks /progress/detected and /progress/done).
 #ifndef FACECAP_STAGES_INGEST_STAGE_H_
@@ -25,7 +26,7 @@ enum IngestFrameStatus : int32_t {
   kFrameNoFace = 1,         // no face detected
   kFrameFaceTooSmall = 2,   // the subject's box is narrower than min_face_size
   kFrameUnreadable = 3,     // the frame or image could not be decoded
-  kFrameSubjectAbsent = 4,  // faces, but none is the subject being followed
+  kFrameSubjectAbsent = 4,  // faces, but none is the subject being followed (video only)
 };
 const char* IngestFrameStatusName(int32_t status);
 
@@ -42,7 +43,8 @@ struct IngestOptions {
   int detect_max_side = 480;          // detection image's longer side (0: full size)
   int detect_upsample = 0;            // detection image doublings (smaller faces, slower)
   double detect_threshold = 0.0;      // detector threshold adjustment
-  int min_face_size = 40;             // subject boxes narrower than this (source px) are too small
+  int min_face_size = 64;             // subject boxes narrower than this (source px) are too small
+  int detect_small_max_side = 1280;   // longer side of the small-face search (0: none)
   int crop_size = 128;                // aligned crop width and height
   double crop_padding = 0.25;         // margin around the mean face in the crop
   float track_min_iou = 0.25f;        // box overlap that continues the subject
@@ -70,7 +72,13 @@ struct IngestOptions {
     v("detect_threshold", detect_threshold, "added to the detector threshold (> 0: fewer, "
                                             "surer faces)");
     v("min_face_size", min_face_size, "subject faces narrower than this many source pixels are "
-                                      "recorded as too small");
+                                      "recorded as too small (half the crop size: the crop "
+                                      "would upsample them more than 2x)");
+    v("detect_small_max_side", detect_small_max_side,
+      "a frame without a face at the detection size is searched again, upsampled, for faces "
+      "down to half min_face_size (at least 20 px), the search image's longer side at most "
+      "this; faces found narrower than min_face_size are recorded as too small (0: no second "
+      "search)");
     v("crop_size", crop_size, "aligned crop width and height in pixels");
     v("crop_padding", crop_padding, "margin around the mean face in the crop, in face sizes");
     v("track_min_iou", track_min_iou, "box overlap (IoU) with the subject's last box that "
