@@ -307,4 +307,83 @@ std::vector<int64_t> ClusterTree::QueryBruteForce(const std::vector<Eigen::Vecto
   return items;
 }
 
+namespace {
+
+// The most children (items, on the flat level) any node of each level has: picks beyond it
+// change nothing.
+std::vector<int> MaxFanOut(const ClusterTree& tree) {
+  std::vector<int> most;
+  const auto& levels = tree.levels();
+  if (levels.empty()) {
+    most.push_back(static_cast<int>(std::min<int64_t>(tree.NumItems(), std::numeric_limits<int>::max())));
+    return most;
+  }
+  most.push_back(static_cast<int>(levels[0].centers.rows()));
+  for (const ClusterLevel& level : levels) {
+    int widest = 0;
+    for (size_t j = 0; j + 1 < level.first_child.size(); ++j) {
+      widest = std::max(widest, level.first_child[j + 1] - level.first_child[j]);
+    }
+    most.push_back(std::max(1, widest));
+  }
+  return most;
+}
+
+MultiQueryResult RunAll(const ClusterTree& tree, const std::vector<std::vector<Eigen::VectorXf>>& queries,
+                        const std::vector<int>& picks) {
+  MultiQueryResult r;
+  r.picks = picks;
+  std::unordered_set<int64_t> seen;
+  for (const auto& q : queries) {
+    r.per_query.push_back(tree.Query(q, picks));
+    for (int64_t item : r.per_query.back()) if (seen.insert(item).second) r.unique.push_back(item);
+  }
+  return r;
+}
+
+}  // namespace
+
+MultiQueryResult QueryMany(const ClusterTree& tree, const std::vector<std::vector<Eigen::VectorXf>>& queries,
+                           const std::vector<int>& picks, int64_t target_unique) {
+  MultiQueryResult result = RunAll(tree, queries, picks);
+  if (target_unique <= 0 || queries.empty()) return result;
+  const int64_t target = std::min<int64_t>(target_unique, tree.NumItems());
+  const std::vector<int> most = MaxFanOut(tree);
+  std::vector<int> widened = picks;
+  while (static_cast<int64_t>(result.unique.size()) < target) {
+    int level = static_cast<int>(widened.size()) - 1;
+    while (level >= 0 && widened[level] >= most[level]) --level;
+    if (level < 0) break;  // every item is taken
+    ++widened[level];
+    MultiQueryResult next = RunAll(tree, queries, widened);
+    if (static_cast<int64_t>(next.unique.size()) <= target) {
+      result = std::move(next);
+      continue;
+    }
+    // This step overshoots: keep what came before and add the step's new items round-robin
+    // over the queries until the target is met.
+    std::unordered_set<int64_t> seen(result.unique.begin(), result.unique.end());
+    std::vector<size_t> cursor(queries.size(), 0);
+    std::vector<std::unordered_set<int64_t>> had(queries.size());
+    for (size_t i = 0; i < queries.size(); ++i) had[i].insert(result.per_query[i].begin(), result.per_query[i].end());
+    bool added = true;
+    while (static_cast<int64_t>(result.unique.size()) < target && added) {
+      added = false;
+      for (size_t i = 0; i < queries.size() && static_cast<int64_t>(result.unique.size()) < target; ++i) {
+        const std::vector<int64_t>& items = next.per_query[i];
+        while (cursor[i] < items.size() && had[i].count(items[cursor[i]])) ++cursor[i];
+        if (cursor[i] == items.size()) continue;
+        const int64_t item = items[cursor[i]++];
+        had[i].insert(item);
+        result.per_query[i].push_back(item);
+        if (seen.insert(item).second) result.unique.push_back(item);
+        added = true;
+      }
+    }
+    result.picks = widened;
+    break;
+  }
+  return result;
+}
+
 }  // namespace facecap::curate

@@ -78,6 +78,26 @@ class ClusterTree {
   int flat_dims_ = 0;
 };
 
+// Many queries at once (e.g. the renders of a turntable, paper 000 Sec. 5.2): each query's
+// picks, and the unique items over all of them in query order.
+struct MultiQueryResult {
+  std::vector<std::vector<int64_t>> per_query;  // items each query picked, traversal order
+  std::vector<int64_t> unique;                  // items over all queries, each once
+  std::vector<int> picks;                       // q_1 ... q_n used (after any widening)
+};
+
+// Runs every query with `picks`. With target_unique > 0, while fewer than target_unique
+// unique items come back and the picks do not yet take every item, the picks are widened one
+// step at a time from the bottom level up: q_n grows by one until it reaches the largest leaf
+// node, then q_{n-1} up to the most children any node has, ..., then q_1; the pose level,
+// which decides how close the picks' poses are, is widened last. The step that reaches the
+// target adds its new items round-robin over the queries (each query's in traversal order)
+// until exactly target_unique are unique, so the result has target_unique items, or all
+// items when the tree holds fewer.
+MultiQueryResult QueryMany(const ClusterTree& tree,
+                           const std::vector<std::vector<Eigen::VectorXf>>& queries,
+                           const std::vector<int>& picks, int64_t target_unique = 0);
+
 // k-means with k-means++ seeding on `rows` of `data`: returns the centres (<= k rows: empty
 // clusters are dropped) and each row's cluster.
 void KMeans(const FeatureMatrix& data, const std::vector<int64_t>& rows, int k, uint64_t seed,

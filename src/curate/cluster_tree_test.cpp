@@ -105,5 +105,44 @@ TEST(ClusterTreeTest, TenThousandFramesBuildAndQueryTimes) {
   EXPECT_LT(query, 0.01);
 }
 
+TEST(ClusterTreeTest, QueryManyWidensThePicksToATargetOfUniqueFrames) {
+  // A turntable-like query set: 40 queries over 3000 frames.
+  const auto features = RandomFeatures(3000, 5);
+  const ClusterTree tree = ClusterTree::Build(features, ClusterTreeOptions());
+  Rng rng(9, 0);
+  std::vector<std::vector<Eigen::VectorXf>> queries;
+  for (int i = 0; i < 40; ++i) queries.push_back(QueryOf(features, rng.UniformInt(3000)));
+  const std::vector<int> picks = {2, 3, 1};
+
+  // Without a target: exactly the single queries' picks.
+  const MultiQueryResult plain = QueryMany(tree, queries, picks);
+  ASSERT_EQ(plain.per_query.size(), queries.size());
+  for (size_t i = 0; i < queries.size(); ++i) EXPECT_EQ(plain.per_query[i], tree.Query(queries[i], picks));
+  EXPECT_EQ(plain.picks, picks);
+  ASSERT_LT(plain.unique.size(), 250u);
+
+  // A target of 250 (the paper's 200-300): exactly 250 unique frames, picks widened from
+  // the bottom level, every query still holding its original picks.
+  const MultiQueryResult wide = QueryMany(tree, queries, picks, 250);
+  EXPECT_EQ(wide.unique.size(), 250u);
+  std::vector<int64_t> sorted = wide.unique;
+  std::sort(sorted.begin(), sorted.end());
+  EXPECT_EQ(std::unique(sorted.begin(), sorted.end()), sorted.end());
+  EXPECT_GT(wide.picks[2], picks[2]);
+  EXPECT_EQ(wide.picks[0], picks[0]);  // the pose level is widened last
+  for (size_t i = 0; i < queries.size(); ++i) {
+    for (int64_t item : tree.Query(queries[i], picks)) {
+      EXPECT_NE(std::find(wide.per_query[i].begin(), wide.per_query[i].end(), item), wide.per_query[i].end())
+          << "query " << i << " lost item " << item;
+    }
+  }
+
+  // A target above the frame count takes every frame; a target already met changes nothing.
+  const MultiQueryResult all = QueryMany(tree, queries, picks, 5000);
+  EXPECT_EQ(all.unique.size(), 3000u);
+  const MultiQueryResult met = QueryMany(tree, queries, picks, 10);
+  EXPECT_EQ(met.unique, plain.unique);
+}
+
 }  // namespace
 }  // namespace facecap::curate

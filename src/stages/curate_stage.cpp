@@ -71,10 +71,13 @@ struct CurateQueryOptions {
   std::string renders;                   // or by every image in this folder (turntable)
   std::string query_frames;              // or by every face of another ingest output
   std::vector<int> picks = {2, 3, 1};    // q_1 ... q_n
+  int64_t unique_frames = 0;             // widen the picks until this many unique frames (0: off)
   std::string out = "picks.h5";          // output: the picked frames
-  std::string sheet;                     // contact sheet PNG ("": none)
+  bool contact_sheet = true;             // write the contact sheet
+  std::string sheet;                     // its PNG ("": beside out, out's name with .png)
   std::string landmark_model = face::kDefaultLandmarkModel;  // for image and renders queries
   int sheet_rows = 48;                   // queries shown on the sheet at most
+  int sheet_columns = 12;                // picks shown per query at most
 
   template <class V>
   void Visit(V&& v) {
@@ -86,10 +89,18 @@ struct CurateQueryOptions {
                           "renders; returns the unique frames");
     v("query_frames", query_frames, "query with every face of another ingest output");
     v("picks", picks, "q_1 ... q_n: nodes kept per level and frames per leaf (paper: 2, 3, 1)");
+    v("unique_frames", unique_frames,
+      "target count of unique frames over all queries (e.g. 250 for a turntable, paper 000 "
+      "Sec. 5.2): the picks are widened from the bottom level up (frames per leaf, then "
+      "lighting, then pose) until exactly this many are unique, or every frame is taken "
+      "(0: the picks as given)");
     v("out", out, "output file (HDF5) with the picked frames");
-    v("sheet", sheet, "contact sheet PNG: each query's crop beside its picks");
+    v("contact_sheet", contact_sheet, "write the contact sheet (--no-contact-sheet: none)");
+    v("sheet", sheet, "contact sheet PNG, each query's crop beside its picks (default: beside "
+                      "out, with out's name and .png)");
     v("landmark_model", landmark_model, "dlib 68-point model for image and renders queries");
     v("sheet_rows", sheet_rows, "queries shown on the contact sheet at most");
+    v("sheet_columns", sheet_columns, "picks shown beside each query on the contact sheet at most");
   }
   bool Check(std::string* why) const {
     const int given = (frame >= 0) + !image.empty() + !renders.empty() + !query_frames.empty();
@@ -100,7 +111,15 @@ struct CurateQueryOptions {
     for (int q : picks) if (q < 1) { *why = "each pick count must be >= 1"; return false; }
     if (out.empty()) { *why = "out must name a file"; return false; }
     if (sheet_rows < 1) { *why = "sheet_rows must be >= 1"; return false; }
+    if (sheet_columns < 1) { *why = "sheet_columns must be >= 1"; return false; }
+    if (unique_frames < 0) { *why = "unique_frames must be >= 0"; return false; }
+    if (contact_sheet && SheetPath() == out) { *why = "sheet must differ from out"; return false; }
     return true;
+  }
+  // The contact sheet's path: `sheet`, or out with .png.
+  std::string SheetPath() const {
+    if (!sheet.empty()) return sheet;
+    return std::filesystem::path(out).replace_extension(".png").string();
   }
 };
 
@@ -194,7 +213,7 @@ void RunCurateBuild(const StageFlags& flags, AppState* state) {
   f.WriteVector("/features/frame", rows);
   f.SetAttribute("/features/frame", "meaning", std::string("row of the ingest output's /frames"));
   f.WriteMatrix("/features/pose", table.pose);
-  f.SetAttribute("/features/pose", "columns", std::string("pitch, yaw (degrees; pitch > 0 face up, yaw > 0 face to its left)"));
+  f.SetAttribute("/features/pose", "columns", std::string("pitch, yaw (degrees; pitch > 0 face down, yaw > 0 face to its left, as rig::RigidPose)"));
   f.WriteMatrix("/features/lighting", table.lighting);
   f.SetAttribute("/features/lighting", "layout", std::string("4 rows x 3 columns x RGB of the nose crop, [0, 1]"));
   f.WriteMatrix("/features/expression", table.expression);
@@ -334,20 +353,31 @@ void RunCurateQuery(const StageFlags& flags, AppState* state) {
   }
   const curate::FeatureTable features = curate::ComputeFeatures(crop_ptrs, landmarks, 0);
   const auto t0 = std::chrono::steady_clock::now();
+  std::vector<std::vector<Eigen::VectorXf>> query_features;
+  for (size_t i = 0; i < queries.size(); ++i) {
+    query_features.push_back(QueryFeatures(features, static_cast<int>(i), c.kinds));
+  }
+  const curate::MultiQueryResult result = curate::QueryMany(c.tree, query_features, o.picks, o.unique_frames);
+  const double query_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::vector<std::vector<int64_t>> per_query(queries.size());
   for (size_t i = 0; i < queries.size(); ++i) {
-    for (int64_t item : c.tree.Query(QueryFeatures(features, static_cast<int>(i), c.kinds), o.picks)) {
-      per_query[i].push_back(c.frame_of_item[item]);
-    }
+    for (int64_t item : result.per_query[i]) per_query[i].push_back(c.frame_of_item[item]);
   }
-  const double query_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::vector<int64_t> unique;
-  std::unordered_set<int64_t> seen;
+  for (int64_t item : result.unique) unique.push_back(c.frame_of_item[item]);
   std::vector<int64_t> offsets{0}, all;
   for (const auto& p : per_query) {
-    for (int64_t row : p) if (seen.insert(row).second) unique.push_back(row);
     all.insert(all.end(), p.begin(), p.end());
     offsets.push_back(static_cast<int64_t>(all.size()));
+  }
+  if (o.unique_frames > 0) {
+    std::string used;
+    for (int q : result.picks) used += (used.empty() ? "" : ", ") + std::to_string(q);
+    if (static_cast<int64_t>(unique.size()) < o.unique_frames) {
+      FC_WARN("curate query: {} unique frames asked for, the tree holds {}: all taken", o.unique_frames,
+              unique.size());
+    }
+    FC_INFO("curate query: picks widened to ({}) for {} unique frames", used, unique.size());
   }
   const std::vector<int64_t> source_index = frames.ReadVector<int64_t>("/frames/source_index");
   std::vector<int64_t> unique_source;
@@ -366,11 +396,15 @@ void RunCurateQuery(const StageFlags& flags, AppState* state) {
   for (const QueryItem& q : queries) labels.push_back(q.label);
   out.WriteStrings("/queries/labels", labels);
   out.WriteMatrix("/queries/pose", features.pose);
+  out.SetAttribute("/queries/pose", "columns", std::string("pitch, yaw (degrees; pitch > 0 face down, yaw > 0 face to its left)"));
+  out.WriteVector("/queries/picks_per_level", std::vector<int32_t>(result.picks.begin(), result.picks.end()));
+  out.SetAttribute("/queries/picks_per_level", "meaning", std::string("q_1 ... q_n used (widened for unique_frames)"));
+  out.SetAttribute("/picks/frames", "unique_frames_asked", o.unique_frames);
   out.Commit();
 
-  if (!o.sheet.empty()) {
+  if (o.contact_sheet) {
     size_t columns = 1;
-    for (const auto& p : per_query) columns = std::max(columns, p.size() + 1);
+    for (const auto& p : per_query) columns = std::max(columns, std::min(p.size(), static_cast<size_t>(o.sheet_columns)) + 1);
     std::vector<Image8> tiles;
     const size_t rows = std::min<size_t>(queries.size(), static_cast<size_t>(o.sheet_rows));
     for (size_t i = 0; i < rows; ++i) {
@@ -386,8 +420,8 @@ void RunCurateQuery(const StageFlags& flags, AppState* state) {
     sheet_options.columns = static_cast<int>(columns);
     sheet_options.border = 2;
     sheet_options.border_value = {40, 40, 40};
-    io::WriteImage(o.sheet, render::ContactSheet(tiles, sheet_options));
-    FC_INFO("curate query: contact sheet (query | picks, one row per query) -> {}", o.sheet);
+    io::WriteImage(o.SheetPath(), render::ContactSheet(tiles, sheet_options));
+    FC_INFO("curate query: contact sheet (query | picks, one row per query) -> {}", o.SheetPath());
   }
   FC_INFO("curate query: {} quer{} -> {} unique frames ({:.3f} ms per query in the tree) -> {}",
           queries.size(), queries.size() == 1 ? "y" : "ies", unique.size(),
