@@ -1,7 +1,7 @@
 // facecap ingest gives the same frames.h5 on any number of ranks: the world communicator's
 // run is compared, dataset by dataset, with a single-rank run of the same clip. The clip is a
 // camera move over a real photo that ships in a Debian package (python-matplotlib-data),
-// with frames without a face between.
+// with frames without a face between, and the same for a folder of stills.
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -9,6 +9,7 @@
 #include "dist/comm.h"
 #include "face/frame_source.h"
 #include "io/hdf5.h"
+#include "io/image_io.h"
 #include "stages/ingest_stage.h"
 #include "testing/testing.h"
 
@@ -87,6 +88,53 @@ TEST(IngestMpiTest, SameOutputForAnyNumberOfRanks) {
   ExpectSameDataset<int64_t>(a, b, "/frames/source_index");
   ExpectSameDataset<double>(a, b, "/frames/timecode");
   EXPECT_EQ(a.GetIntAttribute("/", "mpi_ranks"), world.size());
+}
+
+TEST(IngestMpiTest, ImageFolderGivesTheSameOutputForAnyNumberOfRanks) {
+  const dist::Comm world = dist::Comm::World();
+  std::string dir;
+  std::unique_ptr<testing::TempDir> temp;
+  int ok = 1;
+  if (world.IsMainRank()) {
+    temp = std::make_unique<testing::TempDir>();
+    dir = temp->path();
+    face::DecodedFrame photo = face::ReadImageFile(kRealPhoto, 0);
+    ok = photo.ok ? 1 : 0;
+    if (ok) {
+      std::filesystem::create_directories(dir + "/stills");
+      std::vector<Image8> frames = face::CameraMoveClip(photo.image, 320, 240, 6);
+      frames.emplace_back(320, 240, 3, 90);  // no face
+      for (size_t k = 0; k < frames.size(); ++k) {
+        io::WriteImage(dir + "/stills/" + std::to_string(100 + k) + ".png", frames[k]);
+      }
+    }
+  }
+  world.Broadcast(&ok, sizeof(ok));
+  if (!ok) return;
+  world.Broadcast(&dir);
+  stages::IngestOptions o;
+  o.images = dir + "/stills";
+  o.batch = 2;
+  o.threads = 1;
+  o.crop_size = 64;
+  o.out = dir + "/ranks.h5";
+  io::Config resolved;
+  io::StoreOptions(o, "ingest", &resolved);
+  stages::StageContext ctx;
+  ctx.comm = world;
+  const stages::IngestSummary summary = stages::RunIngest(o, ctx, resolved);
+  if (!world.IsMainRank()) return;
+  EXPECT_EQ(summary.frames, 7);
+  EXPECT_EQ(summary.subject_absent, 0);
+  o.out = dir + "/single.h5";
+  stages::StageContext single;
+  single.comm = dist::Comm::Single();
+  stages::RunIngest(o, single, resolved);
+  const io::H5File a = io::H5File::OpenRead(dir + "/ranks.h5");
+  const io::H5File b = io::H5File::OpenRead(dir + "/single.h5");
+  ExpectSameDataset<int32_t>(a, b, "/frames/status");
+  for (const char* name : {"/frames/box", "/frames/landmarks"}) ExpectSameDataset<float>(a, b, name);
+  ExpectSameDataset<uint8_t>(a, b, "/frames/crop");
 }
 
 }  // namespace
