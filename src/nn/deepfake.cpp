@@ -29,43 +29,66 @@ torch::nn::Conv2d Conv(int in, int out, int kernel, int stride, int padding) {
 
 // E: strided 5x5 convolutions from size down to latent_resolution, channels encoder_width,
 // 2x, 4x, ..., then a 1x1 convolution to the latent_channels of the code E(I) (no activation).
-torch::nn::Sequential MakeEncoder(const DeepfakeNetworkOptions& o) {
-  torch::nn::Sequential seq;
-  const int levels = Log2(o.size / o.latent_resolution);
-  int in = 3;
-  for (int l = 0; l < levels; ++l) {
-    const int out = o.encoder_width << l;
-    seq->push_back("down" + std::to_string(l), Conv(in, out, 5, 2, 2));
-    seq->push_back("act" + std::to_string(l), Leaky(0.1));
-    in = out;
+// forward() returns every level's features (after the activation) and the code last.
+struct EncoderNetImpl : torch::nn::Module {
+  explicit EncoderNetImpl(const DeepfakeNetworkOptions& o) {
+    const int levels = Log2(o.size / o.latent_resolution);
+    int in = 3;
+    for (int l = 0; l < levels; ++l) {
+      const int out = o.encoder_width << l;
+      down.push_back(register_module("down" + std::to_string(l), Conv(in, out, 5, 2, 2)));
+      in = out;
+    }
+    code = register_module("code", Conv(in, o.latent_channels, 1, 1, 0));
   }
-  seq->push_back("code", Conv(in, o.latent_channels, 1, 1, 0));
-  return seq;
-}
+  std::vector<torch::Tensor> forward(torch::Tensor x) {
+    std::vector<torch::Tensor> out;
+    for (auto& conv : down) {
+      x = torch::leaky_relu(conv->forward(x), 0.1);
+      out.push_back(x);
+    }
+    out.push_back(code->forward(x));
+    return out;
+  }
+  std::vector<torch::nn::Conv2d> down;
+  torch::nn::Conv2d code{nullptr};
+};
+TORCH_MODULE(EncoderNet);
 
 // D_A, D_B: a 3x3 convolution from the code, then per level a nearest 2x upsampling and a 3x3
 // convolution (channels halving down to decoder_width), and a 3x3 convolution to RGB in [0, 1].
-torch::nn::Sequential MakeDecoder(const DeepfakeNetworkOptions& o) {
-  torch::nn::Sequential seq;
-  const int levels = Log2(o.size / o.latent_resolution);
-  int in = o.decoder_width << (levels - 1);
-  seq->push_back("in", Conv(o.latent_channels, in, 3, 1, 1));
-  seq->push_back("in_act", Leaky(0.1));
-  for (int l = levels - 1; l >= 0; --l) {
-    const int out = o.decoder_width << l;
-    const std::string k = std::to_string(levels - 1 - l);
-    seq->push_back("upsample" + k,
-                   torch::nn::Upsample(torch::nn::UpsampleOptions()
-                                           .scale_factor(std::vector<double>{2.0, 2.0})
-                                           .mode(torch::kNearest)));
-    seq->push_back("up" + k, Conv(in, out, 3, 1, 1));
-    seq->push_back("act" + k, Leaky(0.1));
-    in = out;
+// With skips > 0, the upsampled features of the `skips` finest encoder levels are concatenated
+// with the encoder's features of the same resolution before the convolution (a U-Net).
+struct DecoderNetImpl : torch::nn::Module {
+  explicit DecoderNetImpl(const DeepfakeNetworkOptions& o)
+      : levels(Log2(o.size / o.latent_resolution)), skips(o.skips) {
+    int in = o.decoder_width << (levels - 1);
+    input = register_module("in", Conv(o.latent_channels, in, 3, 1, 1));
+    for (int l = levels - 1; l >= 0; --l) {
+      const int k = levels - 1 - l;
+      const int out = o.decoder_width << l;
+      const int skip_level = levels - 2 - k;  // encoder level of the same resolution
+      const int extra = skip_level >= 0 && skip_level < skips ? (o.encoder_width << skip_level) : 0;
+      up.push_back(register_module("up" + std::to_string(k), Conv(in + extra, out, 3, 1, 1)));
+      in = out;
+    }
+    rgb = register_module("rgb", Conv(in, 3, 3, 1, 1));
   }
-  seq->push_back("rgb", Conv(in, 3, 3, 1, 1));
-  seq->push_back("sigmoid", torch::nn::Sigmoid());
-  return seq;
-}
+  torch::Tensor forward(const std::vector<torch::Tensor>& encoded) {
+    torch::Tensor x = torch::leaky_relu(input->forward(encoded.back()), 0.1);
+    for (int k = 0; k < levels; ++k) {
+      x = torch::upsample_nearest2d(x, {x.size(2) * 2, x.size(3) * 2});
+      const int skip_level = levels - 2 - k;
+      if (skip_level >= 0 && skip_level < skips) x = torch::cat({x, encoded[skip_level]}, 1);
+      x = torch::leaky_relu(up[k]->forward(x), 0.1);
+    }
+    return torch::sigmoid(rgb->forward(x));
+  }
+  int levels, skips;
+  torch::nn::Conv2d input{nullptr}, rgb{nullptr};
+  std::vector<torch::nn::Conv2d> up;
+};
+TORCH_MODULE(DecoderNet);
 
 // G_image: a PatchGAN, one score per patch (least-squares GAN: no sigmoid).
 torch::nn::Sequential MakeImageDiscriminator(const DeepfakeNetworkOptions& o) {
@@ -141,6 +164,10 @@ bool DeepfakeNetworkOptions::Check(std::string* why) const {
     return false;
   }
   const int levels = Log2(size / latent_resolution);
+  if (skips < 0 || skips > levels - 1) {
+    *why = "skips must be in [0, " + std::to_string(levels - 1) + "] for this size and latent_resolution";
+    return false;
+  }
   if ((static_cast<int64_t>(encoder_width) << levels) > 65536 ||
       (static_cast<int64_t>(decoder_width) << levels) > 65536) {
     *why = "encoder_width or decoder_width is too large for this many levels";
@@ -193,7 +220,8 @@ bool CudaAvailable() { return torch::cuda::is_available(); }
 struct DeepfakeModel::Impl {
   DeepfakeNetworkOptions options;
   torch::Device device = torch::kCPU;
-  torch::nn::Sequential encoder{nullptr}, decoder_a{nullptr}, decoder_b{nullptr};
+  EncoderNet encoder{nullptr};
+  DecoderNet decoder_a{nullptr}, decoder_b{nullptr};
   torch::nn::Sequential image_discriminator{nullptr}, latent_discriminator{nullptr};
   std::vector<torch::Tensor> parameters;  // views into `flat`, in layout order
   std::vector<TensorSlot> layout;
@@ -204,7 +232,8 @@ struct DeepfakeModel::Impl {
   bool on_cpu() const { return device.is_cpu(); }
   float* host_data() { return on_cpu() ? flat.data_ptr<float>() : host.data_ptr<float>(); }
 
-  void Collect(const std::string& prefix, const torch::nn::Sequential& net) {
+  template <class Net>
+  void Collect(const std::string& prefix, const Net& net) {
     for (const auto& item : net->named_parameters()) {
       std::string name = prefix + "/" + item.key();
       for (char& c : name) if (c == '.') c = '/';
@@ -235,15 +264,16 @@ DeepfakeModel::DeepfakeModel(const DeepfakeNetworkOptions& options, uint64_t ini
     throw InvalidInputError("device must be cpu or cuda, got '" + device + "'");
   }
   torch::manual_seed(init_seed);
-  m.encoder = MakeEncoder(options);
-  m.decoder_a = MakeDecoder(options);
-  m.decoder_b = MakeDecoder(options);
+  m.encoder = EncoderNet(options);
+  m.decoder_a = DecoderNet(options);
+  m.decoder_b = DecoderNet(options);
   m.image_discriminator = MakeImageDiscriminator(options);
   m.latent_discriminator = MakeLatentDiscriminator(options);
-  for (auto* net : {&m.encoder, &m.decoder_a, &m.decoder_b, &m.image_discriminator,
-                    &m.latent_discriminator}) {
-    (*net)->to(m.device);
-  }
+  m.encoder->to(m.device);
+  m.decoder_a->to(m.device);
+  m.decoder_b->to(m.device);
+  m.image_discriminator->to(m.device);
+  m.latent_discriminator->to(m.device);
   m.Collect("encoder", m.encoder);
   m.Collect("decoder_a", m.decoder_a);
   m.Collect("decoder_b", m.decoder_b);
@@ -305,8 +335,10 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
   torch::NoGradGuard no_grad;
   const int size = m.options.size;
   const torch::Tensor x = FromBytes(images, count, size, m.device);
-  const torch::Tensor z = m.encoder->forward(x);
-  const torch::Tensor y = (decoder == Decoder::kA ? m.decoder_a : m.decoder_b)->forward(z);
+  const std::vector<torch::Tensor> encoded = m.encoder->forward(x);
+  const torch::Tensor& z = encoded.back();
+  const torch::Tensor y =
+      (decoder == DeepfakeModel::Decoder::kA ? m.decoder_a : m.decoder_b)->forward(encoded);
   const int64_t latent = m.options.LatentSize();
   if (translated) {
     const torch::Tensor bytes = ToBytes(y);
@@ -320,7 +352,7 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
     // E(D(E(I))) of the translation as stored (quantized to 8 bits), as a file reader would see it.
     const torch::Tensor yq = y.clamp(0, 1).mul(255.0).round().div(255.0);
     const torch::Tensor c =
-        m.encoder->forward(yq).reshape({count, latent}).contiguous().to(torch::kCPU);
+        m.encoder->forward(yq).back().reshape({count, latent}).contiguous().to(torch::kCPU);
     std::memcpy(code_of_translation, c.data_ptr<float>(), sizeof(float) * count * latent);
   }
 }
@@ -438,10 +470,12 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     const torch::Tensor input_b = FromFloats(batch.input_b, batch.count, batch.size, m.device);
     const torch::Tensor target_b = FromFloats(batch.target_b, batch.count, batch.size, m.device);
 
-    const torch::Tensor code_a = m.encoder->forward(input_a);   // E(I_A)
-    const torch::Tensor code_b = m.encoder->forward(input_b);   // E(I_B)
-    const torch::Tensor recon_a = m.decoder_a->forward(code_a); // D_A(E(I_A))
-    const torch::Tensor recon_b = m.decoder_b->forward(code_b); // D_B(E(I_B))
+    const std::vector<torch::Tensor> encoded_a = m.encoder->forward(input_a);
+    const std::vector<torch::Tensor> encoded_b = m.encoder->forward(input_b);
+    const torch::Tensor& code_a = encoded_a.back();                // E(I_A)
+    const torch::Tensor& code_b = encoded_b.back();                // E(I_B)
+    const torch::Tensor recon_a = m.decoder_a->forward(encoded_a);  // D_A(E(I_A))
+    const torch::Tensor recon_b = m.decoder_b->forward(encoded_b);  // D_B(E(I_B))
 
     auto reconstruction = [&](const torch::Tensor& y, const torch::Tensor& x) {
       torch::Tensor loss = torch::zeros({}, y.options());
@@ -526,10 +560,10 @@ Image8 DeepfakeTrainer::PreviewGrid(const uint8_t* images_a, const uint8_t* imag
   torch::NoGradGuard no_grad;
   const torch::Tensor xa = FromBytes(images_a, count, s, m.device);
   const torch::Tensor xb = FromBytes(images_b, count, s, m.device);
-  const torch::Tensor code_b = m.encoder->forward(xb);
+  const std::vector<torch::Tensor> encoded_b = m.encoder->forward(xb);
   const std::vector<torch::Tensor> columns = {
-      xa, m.decoder_a->forward(m.encoder->forward(xa)), xb, m.decoder_b->forward(code_b),
-      m.decoder_a->forward(code_b)};
+      xa, m.decoder_a->forward(m.encoder->forward(xa)), xb, m.decoder_b->forward(encoded_b),
+      m.decoder_a->forward(encoded_b)};
   for (int c = 0; c < 5; ++c) {
     const torch::Tensor bytes = ToBytes(columns[c]);
     const uint8_t* p = bytes.data_ptr<uint8_t>();

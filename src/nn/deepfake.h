@@ -35,6 +35,11 @@ struct DeepfakeNetworkOptions {
   int latent_channels = 32;       // channels of the code E(I): its size is channels x res^2
   int decoder_width = 32;         // channels of D_A/D_B's last level; doubled at every level up
   int discriminator_width = 32;   // channels of G_image's first level, and of G_latent
+  // Encoder levels, finest first, whose features also reach the decoders at the same
+  // resolution (U-Net skip connections). 0 is the plain autoencoder of paper 000, where
+  // everything passes through the code E(I); skips let the decoders draw fine borders from
+  // fewer training steps, and the latent discriminator still acts on the code.
+  int skips = 0;
 
   template <class V>
   void Visit(V&& v) {
@@ -44,6 +49,8 @@ struct DeepfakeNetworkOptions {
     v("latent_channels", latent_channels, "channels of the latent code E(I)");
     v("decoder_width", decoder_width, "channels of the decoders' last level, doubled per level up");
     v("discriminator_width", discriminator_width, "channels of the discriminators");
+    v("skips", skips,
+      "finest encoder levels whose features also feed the decoders (U-Net skips; 0: none)");
   }
   bool Check(std::string* why) const;
   int64_t LatentSize() const {

@@ -65,6 +65,10 @@ DeepfakeNetworkOptions ReadNetworkOptions(const io::H5File& file) {
     throw FileIOError(file.path() + ": no /weights group; is this a deepfake model file?");
   }
   o.Visit([&](const char* key, int& value, const char*) {
+    if (!file.HasAttribute(kWeights, key) && std::string(key) == "skips") {
+      value = 0;  // files written before skip connections existed
+      return;
+    }
     if (!file.HasAttribute(kWeights, key)) {
       throw FileIOError(file.path() + ": /weights lacks the attribute '" + key +
                         "' of the network architecture");

@@ -54,6 +54,7 @@ struct DeepfakeTrainOptions {
   std::string b = "frames.h5";                   // domain B: real frames (ingest) or a wild clip
   std::string b_dataset = "";                    // image dataset of B ("": first found of
                                                  // /frames/image, /frames/crop, /samples/segmentation)
+  int b_holdout_every = 0;                       // B frames i % n == n - 1 are not trained on
   std::string out = "deepfake.h5";               // model file
   int steps = 2000;                              // training steps (global batches)
   int batch = 16;                                // global batch: images of A and of B per step
@@ -76,6 +77,8 @@ struct DeepfakeTrainOptions {
     v("b", b, "domain B file: real frames (ingest) or a wild clip (synth clip)");
     v("b_dataset", b_dataset,
       "image dataset of B (empty: the first of /frames/image, /frames/crop, /samples/segmentation)");
+    v("b_holdout_every", b_holdout_every,
+      "keep every n-th frame of B (i % n == n - 1) out of training, for evaluation (0: none)");
     v("out", out, "model file (HDF5); OUT.checkpoint holds the checkpoint while training");
     v("steps", steps, "training steps; a finished model is trained further when this grows");
     v("batch", batch, "global batch (images of A and of B per step), shared among the ranks");
@@ -93,6 +96,7 @@ struct DeepfakeTrainOptions {
   }
   bool Check(std::string* why) const {
     if (steps < 0) { *why = "steps must be >= 0"; return false; }
+    if (b_holdout_every < 0 || b_holdout_every == 1) { *why = "b_holdout_every must be 0 or >= 2"; return false; }
     if (batch < 1) { *why = "batch must be positive"; return false; }
     if (checkpoint_every < 0 || preview_every < 0) {
       *why = "checkpoint_every and preview_every must be >= 0";
@@ -113,6 +117,10 @@ struct DeepfakeInferOptions {
   std::string dataset = "";               // image dataset ("": first found, as for train's B)
   std::string out = "translated.h5";      // output file
   std::string decoder = "A";              // A: D_A (the synthetic style), B: D_B
+  // File whose /camera/intrinsics (scaled to the translations) is stored with them, so that
+  // they can be tracked; "": the frames file's camera, when it has one. Crops of real footage
+  // have none: name the synthetic samples (domain A), whose framing the translations imitate.
+  std::string camera = "";
   int batch = 16;                         // frames per rank per round (a checkpoint per round)
   int threads = 0;                        // torch threads per rank (0: cores / ranks)
   std::string device = "cpu";             // cpu or cuda
@@ -131,6 +139,9 @@ struct DeepfakeInferOptions {
       "image dataset (empty: the first of /frames/image, /frames/crop, /samples/segmentation)");
     v("out", out, "output file (HDF5)");
     v("decoder", decoder, "A: translate to domain A with D_A (segmentation style); B: D_B");
+    v("camera", camera,
+      "file whose /camera/intrinsics is stored with the translations (empty: the frames "
+      "file's; for crops of real footage name the synthetic samples)");
     v("batch", batch, "frames per rank per round; each round is a checkpoint");
     v("threads", threads, "torch threads per rank (0: the cores divided among the node's ranks)");
     v("device", device, "cpu, or cuda when libtorch has CUDA");
@@ -172,28 +183,42 @@ std::string FindImageDataset(const io::H5File& f, const std::string& requested) 
                     "/samples/segmentation; name one with the dataset option");
 }
 
-// The frames' camera (/camera/intrinsics, when present) scaled to the translations, so that
-// the translations can be tracked as segmentation targets in the same image frame.
-void CopyScaledCamera(const io::H5File& frames, double scale, int size, io::H5File* out) {
-  if (!frames.Exists("/camera/intrinsics")) return;
-  std::vector<double> k = frames.ReadVector<double>("/camera/intrinsics", 4);
+// The width in pixels of the images a file's /camera/intrinsics belongs to: its `width`
+// attribute, else the width of the file's first image dataset.
+double CameraImageWidth(const io::H5File& f) {
+  if (f.HasAttribute("/camera/intrinsics", "width")) return f.GetDoubleAttribute("/camera/intrinsics", "width");
+  for (const char* name : kImageDatasets) {
+    if (f.Exists(name)) return static_cast<double>(f.DatasetShape(name)[2]);
+  }
+  throw FileIOError(f.path() + ": /camera/intrinsics has no width attribute and the file no images");
+}
+
+// A camera (/camera/intrinsics of `source`, when present) scaled to the translations, so that
+// the translations can be tracked as segmentation targets in that image frame.
+void CopyScaledCamera(const io::H5File& source, int size, io::H5File* out) {
+  if (!source.Exists("/camera/intrinsics")) return;
+  const double scale = size / CameraImageWidth(source);
+  std::vector<double> k = source.ReadVector<double>("/camera/intrinsics", 4);
   for (double& v : k) v *= scale;
   out->WriteVector<double>("/camera/intrinsics", k);
   out->SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
   out->SetAttribute("/camera/intrinsics", "width", static_cast<double>(size));
   out->SetAttribute("/camera/intrinsics", "height", static_cast<double>(size));
-  if (frames.HasAttribute("/camera/intrinsics", "distance_cm")) {
+  if (source.HasAttribute("/camera/intrinsics", "distance_cm")) {
     out->SetAttribute("/camera/intrinsics", "distance_cm",
-                      frames.GetDoubleAttribute("/camera/intrinsics", "distance_cm"));
+                      source.GetDoubleAttribute("/camera/intrinsics", "distance_cm"));
   }
 }
 
-// Frames usable for training: all, except ingest frames where no face was found.
-std::vector<int64_t> UsableFrames(const io::H5File& f, const std::string& dataset, int64_t n) {
+// Frames usable for training: all, except ingest frames where no face was found and, with
+// holdout_every = n > 0, every n-th frame (i % n == n - 1), kept out for evaluation.
+std::vector<int64_t> UsableFrames(const io::H5File& f, const std::string& dataset, int64_t n,
+                                  int holdout_every = 0) {
   std::vector<int64_t> usable;
   std::vector<uint8_t> found;
   if (dataset == "/frames/crop" && f.Exists("/frames/found")) found = f.ReadVector<uint8_t>("/frames/found", n);
   for (int64_t i = 0; i < n; ++i) {
+    if (holdout_every > 0 && i % holdout_every == holdout_every - 1) continue;
     if (found.empty() || found[i]) usable.push_back(i);
   }
   return usable;
@@ -208,7 +233,8 @@ struct ImageShard {
   const uint8_t* image(int64_t i) const { return pixels.data() + i * 3LL * size * size; }
 };
 
-ImageShard ReadShard(const std::string& path, const std::string& requested, const dist::Comm& comm) {
+ImageShard ReadShard(const std::string& path, const std::string& requested, const dist::Comm& comm,
+                     int holdout_every = 0) {
   io::H5File f = io::H5File::OpenRead(path);
   const std::string dataset = FindImageDataset(f, requested);
   const io::Shape shape = f.CheckShape(dataset, {-1, -1, -1, 3});
@@ -216,7 +242,7 @@ ImageShard ReadShard(const std::string& path, const std::string& requested, cons
     throw FileIOError(path + ": " + dataset + " has shape " + io::ShapeToString(shape) +
                       "; square images are expected");
   }
-  const std::vector<int64_t> usable = UsableFrames(f, dataset, shape[0]);
+  const std::vector<int64_t> usable = UsableFrames(f, dataset, shape[0], holdout_every);
   ImageShard shard;
   shard.size = static_cast<int>(shape[1]);
   shard.total = static_cast<int64_t>(usable.size());
@@ -369,7 +395,7 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
   std::unique_ptr<nn::DeepfakeTrainer> trainer;
   dist::CoordinateExceptions(comm, [&] {
     shard_a = ReadShard(o.a, o.a_dataset, comm);
-    shard_b = ReadShard(o.b, o.b_dataset, comm);
+    shard_b = ReadShard(o.b, o.b_dataset, comm, o.b_holdout_every);
     regions = ReadRegions(io::H5File::OpenRead(o.a));
     if (o.augment.randomize_a > 0 && regions.names.empty()) {
       throw FileIOError(o.a + ": randomize_a needs the region names and colours (/regions) of "
@@ -590,7 +616,12 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
                    std::string("E(D(E(I))) of the stored 8-bit translation (paper 000 Sec. 9)"));
     if (!output.resumed) {
       WriteRegions(&f, regions);
-      CopyScaledCamera(frames_file, static_cast<double>(size) / frame_size, size, &f);
+      if (o.camera.empty()) {
+        CopyScaledCamera(frames_file, size, &f);
+      } else {
+        CopyScaledCamera(io::H5File::OpenRead(o.camera), size, &f);
+        if (!f.Exists("/camera/intrinsics")) throw FileIOError(o.camera + ": no /camera/intrinsics");
+      }
     }
     io::DoneMask mask(&f, num_frames);
     pending = mask.Pending();

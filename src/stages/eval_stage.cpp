@@ -1,6 +1,9 @@
 // facecap eval track: accuracy of a track.h5 against the truth of a synthetic file (samples
 // or clip): pose error, weight error per shape, landmark NME and vertex error over the
 // inter-ocular distance, and the solve time per frame. Prints one JSON object.
+// facecap eval landmarks: for real footage, which has no true parameters, the reprojection
+// error of the tracked rig's 68 landmarks against the landmarks dlib detected in the crops,
+// on all frames with a face and on the frames held out of deepfake training.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -224,6 +227,126 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
   }
 }
 
+// [eval.landmarks]
+struct EvalLandmarksOptions {
+  std::string frames = "frames.h5";  // ingest output: /frames/landmarks_crop, /frames/found
+  std::string track = "track.h5";    // tracking of the frames' translations
+  std::string rig = "rig.h5";        // the rig that was tracked
+  int holdout_every = 0;             // frames i % n == n - 1 were held out of training
+  bool json = true;                  // print one JSON object (else a table)
+  std::string out = "";              // also write the JSON to this file
+
+  template <class V>
+  void Visit(V&& v) {
+    v("frames", frames, "ingest output (HDF5) with /frames/landmarks_crop and /frames/found");
+    v("track", track, "track.h5 of the frames' translations (its /camera/intrinsics)");
+    v("rig", rig, "the rig that was tracked (HDF5)");
+    v("holdout_every", holdout_every,
+      "frames i % n == n - 1 were held out of deepfake training: reported apart (0: none)");
+    v("json", json, "print one JSON object (false: a readable table)");
+    v("out", out, "also write the JSON object to this file (empty: none)");
+  }
+  bool Check(std::string* why) const {
+    if (holdout_every < 0 || holdout_every == 1) { *why = "holdout_every must be 0 or >= 2"; return false; }
+    return true;
+  }
+};
+
+void RunEvalLandmarks(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<EvalLandmarksOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  const rig::Rig rig = io::ReadRigFile(o.rig);
+  if (rig.landmarks.size() != 68) throw FileIOError(o.rig + ": the rig has no 68 landmarks");
+  io::H5File frames = io::H5File::OpenRead(o.frames);
+  io::H5File track = io::H5File::OpenRead(o.track);
+  const int64_t n = track.NumFrames("/track/weights");
+  const io::Shape crop = frames.CheckShape("/frames/crop", {-1, -1, -1, 3});
+  if (crop[0] < n) throw FileIOError(o.frames + " has fewer frames than " + o.track);
+  frames.CheckShape("/frames/landmarks_crop", {crop[0], 68, 2});
+  std::vector<float> detected(static_cast<size_t>(crop[0]) * 68 * 2);
+  frames.ReadFrames<float>("/frames/landmarks_crop", 0, crop[0], detected.data());
+  const std::vector<uint8_t> found = frames.ReadVector<uint8_t>("/frames/found", crop[0]);
+  const std::vector<std::string> names = track.ReadStrings("/track/shape_names");
+  const auto weights = track.ReadMatrix<float>("/track/weights", n, static_cast<int64_t>(names.size()));
+  const auto pose = track.ReadMatrix<float>("/track/pose", n, 3);
+  const auto translation = track.ReadMatrix<float>("/track/translation", n, 3);
+  const std::vector<float> scale = track.ReadVector<float>("/track/scale", n);
+  const std::vector<double> k = track.ReadVector<double>("/camera/intrinsics", 4);
+  if (!track.HasAttribute("/camera/intrinsics", "width")) {
+    throw FileIOError(o.track + ": /camera/intrinsics has no width attribute");
+  }
+  // Projected rig landmarks are in the tracked images' pixels: scale them to crop pixels.
+  const double to_crop = crop[2] / track.GetDoubleAttribute("/camera/intrinsics", "width");
+  render::Camera camera;
+  camera.fx = static_cast<float>(k[0] * to_crop);
+  camera.fy = static_cast<float>(k[1] * to_crop);
+  camera.cx = static_cast<float>(k[2] * to_crop);
+  camera.cy = static_cast<float>(k[3] * to_crop);
+  const rig::RigEvaluator evaluator(rig);
+  rig::Vertices posed;
+  // [all, held out, trained on]
+  double sum[3] = {0, 0, 0};
+  int count[3] = {0, 0, 0};
+  std::vector<double> errors;
+  for (int64_t f = 0; f < n; ++f) {
+    if (!found[f]) continue;
+    rig::RigidPose p;
+    p.pitch = pose(f, 0);
+    p.yaw = pose(f, 1);
+    p.roll = pose(f, 2);
+    p.translation = translation.row(f).transpose();
+    p.scale = scale[f];
+    Eigen::VectorXf w = Eigen::VectorXf::Zero(rig.NumShapes());
+    for (size_t t = 0; t < names.size(); ++t) {
+      const int s = rig.ShapeIndex(names[t]);
+      if (s >= 0) w[s] = weights(f, t);
+    }
+    evaluator.EvaluatePosed(p, w, &posed);
+    auto point = [&](int l) {
+      const float* p = &detected[(static_cast<size_t>(f) * 68 + l) * 2];
+      return Eigen::Vector2f(p[0], p[1]);
+    };
+    const double iod = (point(36) - point(45)).norm();
+    if (!(iod > 1e-3)) continue;
+    double e = 0.;
+    for (int l = 0; l < 68; ++l) {
+      const Eigen::Vector2f q = camera.Project(posed.row(rig.landmarks[l]).transpose()).head<2>();
+      e += (q - point(l)).norm();
+    }
+    e /= 68. * iod;
+    errors.push_back(e);
+    const bool held_out = o.holdout_every > 0 && f % o.holdout_every == o.holdout_every - 1;
+    for (int g : {0, held_out ? 1 : 2}) {
+      sum[g] += e;
+      ++count[g];
+    }
+  }
+  if (errors.empty()) throw FileIOError(o.frames + ": no tracked frame has a detected face");
+  std::sort(errors.begin(), errors.end());
+  auto mean = [&](int g) { return count[g] ? JsonNumber(sum[g] / count[g]) : std::string("null"); };
+  std::ostringstream js;
+  js << "{\"frames\": " << count[0] << ", \"landmark_nme\": " << mean(0)
+     << ", \"landmark_nme_median\": " << JsonNumber(errors[errors.size() / 2])
+     << ", \"held_out_frames\": " << count[1] << ", \"landmark_nme_held_out\": " << mean(1)
+     << ", \"trained_frames\": " << count[2] << ", \"landmark_nme_trained\": " << mean(2)
+     << ", \"normalized_by\": \"detected inter-ocular distance (landmarks 36, 45)\"}";
+  if (o.json) {
+    std::cout << js.str() << std::endl;
+  } else {
+    std::printf("frames with a face %d\nlandmark NME %s (median %.4f)\nheld out of training: %d "
+                "frames, NME %s\ntrained on: %d frames, NME %s\n",
+                count[0], mean(0).c_str(), errors[errors.size() / 2], count[1], mean(1).c_str(),
+                count[2], mean(2).c_str());
+  }
+  if (!o.out.empty()) {
+    std::ofstream file(o.out);
+    if (!file) throw OutputError("eval landmarks: cannot write " + o.out);
+    file << js.str() << "\n";
+  }
+}
+
 }  // namespace
 
 void RegisterEval(CLI::App* app, AppState* state) {
@@ -240,6 +363,12 @@ void RegisterEval(CLI::App* app, AppState* state) {
       "shape), landmark NME and mean vertex error over the inter-ocular distance (outer eye "
       "corners 36, 45), seconds per frame; one JSON object",
       RunEvalTrack);
+  AddStage<EvalLandmarksOptions>(
+      eval, state, "landmarks", "eval.landmarks", "eval landmarks",
+      "Real footage: reprojection error of the tracked rig's 68 landmarks against the landmarks "
+      "detected in the ingest crops, over the detected inter-ocular distance, on all frames "
+      "with a face and on the frames held out of deepfake training; one JSON object",
+      RunEvalLandmarks);
 }
 
 }  // namespace facecap::stages
