@@ -1,7 +1,9 @@
 #include "nn/blendshape_generator.h"
 
 #include <cmath>
+#include <mutex>
 
+#include <Eigen/Core>
 #include <torch/torch.h>
 
 #include "util/errors.h"
@@ -139,6 +141,188 @@ struct WeightPredictorImpl : torch::nn::Module {
 };
 TORCH_MODULE(WeightPredictor);
 
+// ---------------------------------------------------------------------------------------------
+// Inference form of the generators (PredictOffsets): the arithmetic of GeneratorImpl::forward
+// for one image on one core, prepared once from the parameters.
+// - Every convolution runs in oneDNN on tensors kept in its blocked layout, with the weights
+//   reordered once (libtorch's default picks im2col + BLAS for batch-1 3x3 and 1x1
+//   convolutions, several times slower here). Instance normalization and nearest upsampling
+//   run on plain buffers between the convolutions. Without oneDNN (a libtorch built without
+//   it, or with it switched off) the same runs on plain tensors.
+// - The decoders' 1x1 output convolutions, the channel permutation and the bilinear sampling at
+//   the chart vertices are all linear, so they fold into one matrix applied to the sampled
+//   last decoder features: offsets = M [S f; S 1] (S: the sampling stencil, 1: a channel of
+//   ones carrying the biases). Nothing at H x W with 3N channels is ever formed.
+// - The Tuning input offsets_in(Estimation image) (a 1x1 convolution of that image) folds the
+//   same way into a 1x1 convolution of the Estimation decoder features.
+// Results equal the modules' forward up to float rounding (the order of the sums differs).
+
+bool UseOneDnn() { return at::hasMKLDNN() && at::globalContext().userEnabledMkldnn(); }
+
+// To the convolutions' layout (oneDNN's when `onednn`) and back.
+torch::Tensor ToNet(const torch::Tensor& t, bool onednn) { return onednn && !t.is_mkldnn() ? t.to_mkldnn() : t; }
+torch::Tensor ToDense(const torch::Tensor& t) { return t.is_mkldnn() ? t.to_dense() : t; }
+
+struct FastConv {
+  torch::Tensor weight, bias;
+  int64_t padding = 0, stride = 1;
+
+  FastConv() = default;
+  FastConv(const torch::Tensor& w, const torch::Tensor& b, int64_t pad, int64_t str, bool onednn)
+      : bias(b.detach().clone()), padding(pad), stride(str) {
+    const torch::Tensor dense = w.detach().contiguous().clone();
+    weight = onednn ? at::mkldnn_reorder_conv2d_weight(dense.to_mkldnn(), {padding, padding}, {stride, stride}, {1, 1}, 1)
+                    : dense;
+  }
+  FastConv(const torch::nn::Conv2d& conv, bool onednn)
+      : FastConv(conv->weight, conv->bias, (*c10::get<torch::ExpandingArray<2>>(conv->options.padding()))[0],
+                 (*conv->options.stride())[0], onednn) {}
+  // x in the convolutions' layout; the result too.
+  torch::Tensor operator()(const torch::Tensor& x) const {
+    if (weight.is_mkldnn()) return at::mkldnn_convolution(x, weight, bias, {padding, padding}, {stride, stride}, {1, 1}, 1);
+    return torch::conv2d(x, weight, bias, stride, padding);
+  }
+};
+
+// In place on a dense contiguous [1, C, H, W] tensor: per-channel normalization to zero mean
+// and unit (biased) variance, eps 1e-5, as F::instance_norm without affine parameters.
+void InstanceNormalize(torch::Tensor& t) {
+  const int64_t C = t.size(1), P = t.size(2) * t.size(3);
+  float* data = t.data_ptr<float>();
+  for (int64_t c = 0; c < C; ++c) {
+    float* x = data + c * P;
+    double sum = 0, sq = 0;
+    for (int64_t p = 0; p < P; ++p) sum += x[p];
+    const double mean = sum / static_cast<double>(P);
+    for (int64_t p = 0; p < P; ++p) sq += (x[p] - mean) * (x[p] - mean);
+    const double var = sq / static_cast<double>(P);
+    const float m = static_cast<float>(mean), inv = static_cast<float>(1.0 / std::sqrt(var + 1e-5));
+    for (int64_t p = 0; p < P; ++p) x[p] = (x[p] - m) * inv;
+  }
+}
+
+void ReluInPlace(torch::Tensor& t) {
+  float* x = t.data_ptr<float>();
+  for (int64_t i = 0, n = t.numel(); i < n; ++i) x[i] = x[i] > 0.f ? x[i] : 0.f;
+}
+
+// Nearest upsampling by 2 of a dense contiguous [1, C, H, W] tensor.
+torch::Tensor Upsample2(const torch::Tensor& t) {
+  const int64_t C = t.size(1), H = t.size(2), W = t.size(3);
+  torch::Tensor out = torch::empty({1, C, 2 * H, 2 * W}, t.options());
+  const float* in = t.data_ptr<float>();
+  float* o = out.data_ptr<float>();
+  for (int64_t c = 0; c < C; ++c) {
+    for (int64_t y = 0; y < H; ++y) {
+      const float* row = in + (c * H + y) * W;
+      float* a = o + (c * 2 * H + 2 * y) * 2 * W;
+      for (int64_t x = 0; x < W; ++x) a[2 * x] = a[2 * x + 1] = row[x];
+      std::copy(a, a + 2 * W, a + 2 * W);
+    }
+  }
+  return out;
+}
+
+struct FastResidual {
+  FastConv first, second;
+  bool normalize = false, onednn = false;
+  FastResidual(const ResidualBlockImpl& b, bool use_onednn)
+      : first(b.first, use_onednn), second(b.second, use_onednn), normalize(b.normalize), onednn(use_onednn) {}
+  // x in the convolutions' layout; the result too.
+  torch::Tensor operator()(const torch::Tensor& x) const {
+    if (!normalize) return x + second(torch::relu(first(x)));
+    torch::Tensor y = ToDense(first(x)).contiguous();
+    InstanceNormalize(y);
+    ReluInPlace(y);
+    y = ToDense(second(ToNet(y, onednn))).contiguous();
+    InstanceNormalize(y);
+    return ToNet(ToDense(x) + y, onednn);
+  }
+};
+
+struct FastGenerator {
+  std::vector<FastConv> convs;         // the encoder's three convolutions (each + ReLU)
+  std::vector<FastResidual> blocks;    // the encoder's residual blocks
+  struct Branch {
+    std::vector<FastResidual> block;   // one instance-normalized residual block
+    FastConv up1, up2;
+  };
+  std::vector<Branch> branches;        // large then small, those with outputs
+  std::vector<const DecoderImpl*> decoders;  // their modules (for the output layers)
+  bool onednn = false;
+
+  FastGenerator(const GeneratorImpl& g, bool use_onednn) : onednn(use_onednn) {
+    for (const auto& child : g.encoder->layers->children()) {
+      if (auto conv = std::dynamic_pointer_cast<torch::nn::Conv2dImpl>(child)) {
+        convs.emplace_back(torch::nn::Conv2d(conv), onednn);
+      } else if (auto block = std::dynamic_pointer_cast<ResidualBlockImpl>(child)) {
+        blocks.emplace_back(*block, onednn);
+      }
+    }
+    auto add = [&](const Decoder& d) {
+      Branch b;
+      b.block.emplace_back(*d->block, onednn);
+      b.up1 = FastConv(d->up1, onednn);
+      b.up2 = FastConv(d->up2, onednn);
+      branches.push_back(std::move(b));
+      decoders.push_back(d.get());
+    };
+    if (g.has_large) add(g.large_branch);
+    if (g.has_small) add(g.small_branch);
+  }
+  // The last decoder features (before the output convolutions) of every branch, concatenated:
+  // dense [1, F, H, W] with F = branches x channels.
+  torch::Tensor Features(const torch::Tensor& input) const {
+    torch::Tensor y = ToNet(input, onednn);
+    for (const FastConv& c : convs) y = torch::relu(c(y));
+    for (const FastResidual& b : blocks) y = b(y);
+    std::vector<torch::Tensor> features;
+    for (const Branch& branch : branches) {
+      torch::Tensor z = branch.block[0](y);
+      z = torch::relu(branch.up1(ToNet(Upsample2(ToDense(z).contiguous()), onednn)));
+      z = torch::relu(branch.up2(ToNet(Upsample2(ToDense(z).contiguous()), onednn)));
+      features.push_back(ToDense(z));
+    }
+    return features.size() == 1 ? features[0].contiguous() : torch::cat(features, 1);
+  }
+};
+
+using MatrixXdRow = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// The output layers of a generator as one matrix on [features; 1]: rows are the image channels
+// in shape order (3 i + d), the last column the biases. permutation: GeneratorImpl's.
+MatrixXdRow OutputMatrix(const FastGenerator& g, const torch::Tensor& permutation) {
+  std::vector<MatrixXdRow> blocks;  // per branch: [outputs x (features + 1)]
+  int64_t features = 0, outputs = 0;
+  for (const DecoderImpl* d : g.decoders) {
+    const torch::Tensor w = d->output->weight.detach().to(torch::kFloat64).contiguous();
+    const torch::Tensor b = d->output->bias.detach().to(torch::kFloat64).contiguous();
+    const int64_t out = w.size(0), in = w.size(1);
+    MatrixXdRow m(out, in + 1);
+    for (int64_t o = 0; o < out; ++o) {
+      for (int64_t i = 0; i < in; ++i) m(o, i) = w.data_ptr<double>()[o * in + i];
+      m(o, in) = b.data_ptr<double>()[o];
+    }
+    blocks.push_back(m);
+    features += in;
+    outputs += out;
+  }
+  // Concatenated channels (branch order) as rows of [features + 1].
+  MatrixXdRow cat = MatrixXdRow::Zero(outputs, features + 1);
+  int64_t row = 0, col = 0;
+  for (const MatrixXdRow& m : blocks) {
+    const int64_t in = m.cols() - 1;
+    cat.block(row, col, m.rows(), in) = m.leftCols(in);
+    cat.block(row, features, m.rows(), 1) = m.rightCols(1);
+    row += m.rows();
+    col += in;
+  }
+  MatrixXdRow out(outputs, features + 1);
+  const int64_t* perm = permutation.data_ptr<int64_t>();
+  for (int64_t r = 0; r < outputs; ++r) out.row(r) = cat.row(perm[r]);
+  return out;
+}
+
 }  // namespace
 
 bool BlendshapeNetOptions::Check(std::string* why) const {
@@ -185,6 +369,63 @@ struct BlendshapeGenerator::Impl {
   }
   torch::Tensor TuningResidual(const torch::Tensor& input, const torch::Tensor& initial_image) {
     return tuning->forward(torch::cat({input, torch::relu(offsets_in->forward(initial_image))}, 1));
+  }
+
+  // The inference form (see FastGenerator), built from the parameters on first use and dropped
+  // whenever they change (a caller still running on the old one keeps it alive).
+  struct Inference {
+    std::unique_ptr<FastGenerator> generator, tuning;
+    FastConv offsets_in;      // offsets_in of the Estimation image, on the Estimation features
+    int64_t generator_features = 0, tuning_features = 0;
+    // Output layers on the sampled [generator features; 1] (Estimation only) and on
+    // [generator features; 1; tuning features; 1] (tuned), as 1x1 convolution weights
+    // [3N, rows, 1, 1] applied to the samples laid out as a [1, rows, 1, A] image.
+    FastConv output, output_tuned;
+    bool onednn = false;      // convolutions in oneDNN (else plain libtorch)
+  };
+  std::shared_ptr<const Inference> inference;
+  std::mutex inference_mutex;
+
+  std::shared_ptr<const Inference> InferenceForm() {
+    std::lock_guard<std::mutex> lock(inference_mutex);
+    if (inference) return inference;
+    torch::NoGradGuard no_grad;
+    auto f = std::make_unique<Inference>();
+    f->onednn = UseOneDnn();
+    f->generator = std::make_unique<FastGenerator>(*generator, f->onednn);
+    f->tuning = std::make_unique<FastGenerator>(*tuning, f->onednn);
+    const MatrixXdRow mg = OutputMatrix(*f->generator, generator->permutation);
+    const MatrixXdRow mt = OutputMatrix(*f->tuning, tuning->permutation);
+    const int64_t fg = mg.cols() - 1, ft = mt.cols() - 1, outputs = mg.rows();
+    f->generator_features = fg;
+    f->tuning_features = ft;
+    // offsets_in(image) = W_in image + b_in with image = mg [features; 1].
+    const torch::Tensor w_in = offsets_in->weight.detach().to(torch::kFloat64).reshape({offsets_in->weight.size(0), -1}).contiguous();
+    const torch::Tensor b_in = offsets_in->bias.detach().to(torch::kFloat64).contiguous();
+    const Eigen::Map<const MatrixXdRow> win(w_in.data_ptr<double>(), w_in.size(0), w_in.size(1));
+    const MatrixXdRow folded = win * mg;  // [c, fg + 1]
+    torch::Tensor w = torch::empty({folded.rows(), fg, 1, 1}, torch::kFloat32);
+    torch::Tensor b = torch::empty({folded.rows()}, torch::kFloat32);
+    for (int64_t o = 0; o < folded.rows(); ++o) {
+      for (int64_t i = 0; i < fg; ++i) w.data_ptr<float>()[o * fg + i] = static_cast<float>(folded(o, i));
+      b.data_ptr<float>()[o] = static_cast<float>(folded(o, fg) + b_in.data_ptr<double>()[o]);
+    }
+    f->offsets_in = FastConv(w, b, 0, 1, f->onednn);
+    MatrixXdRow both(outputs, fg + 1 + ft + 1);
+    both << mg, mt;
+    auto as_conv = [&](const MatrixXdRow& m) {
+      const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> w = m.cast<float>();
+      return FastConv(torch::from_blob(const_cast<float*>(w.data()), {w.rows(), w.cols(), 1, 1}, torch::kFloat32),
+                      torch::zeros({w.rows()}, torch::kFloat32), 0, 1, f->onednn);
+    };
+    f->output = as_conv(mg);
+    f->output_tuned = as_conv(both);
+    inference = std::move(f);
+    return inference;
+  }
+  void DropInference() {
+    std::lock_guard<std::mutex> lock(inference_mutex);
+    inference.reset();
   }
 };
 
@@ -318,6 +559,7 @@ void BlendshapeGenerator::OptimizerStep(TrainingStage stage) {
   const size_t begin = stage == TrainingStage::kEstimation ? 0 : m.estimation_end;
   const size_t end = stage == TrainingStage::kEstimation ? m.estimation_end : m.parameters.size();
   int64_t offset = 0;
+  m.DropInference();
   torch::NoGradGuard no_grad;
   for (size_t k = 0; k < m.parameters.size(); ++k) {
     torch::Tensor& p = m.parameters[k];
@@ -352,6 +594,7 @@ void BlendshapeGenerator::SetParameters(const std::vector<float>& parameters) {
     throw FileIOError("blendshape generator: " + std::to_string(parameters.size()) +
                       " parameters given, the networks have " + std::to_string(impl_->num_parameters));
   }
+  impl_->DropInference();
   torch::NoGradGuard no_grad;
   int64_t offset = 0;
   for (auto& p : impl_->parameters) {
@@ -385,6 +628,70 @@ void BlendshapeGenerator::SetState(const std::vector<float>& state) {
 std::vector<float> BlendshapeGenerator::PredictOffsets(const std::vector<float>& neutral_image,
                                                        bool tuned) const {
   Impl& m = *impl_;  // modules' forward is not const
+  const int64_t H = m.H(), N = m.N(), A = m.A();
+  if (static_cast<int64_t>(neutral_image.size()) != 3 * H * H) {
+    throw InvalidInputError("blendshape generator: neutral image has the wrong size");
+  }
+  const std::shared_ptr<const Impl::Inference> form = m.InferenceForm();
+  const Impl::Inference& f = *form;
+  torch::NoGradGuard no_grad;
+  const torch::Tensor input = m.WithStatic(torch::from_blob(const_cast<float*>(neutral_image.data()),
+                                                            {1, 3, H, H}, torch::kFloat32));
+  const torch::Tensor generator_features = f.generator->Features(input);
+  torch::Tensor tuning_features;
+  if (tuned) {
+    torch::Tensor initial = ToDense(f.offsets_in(ToNet(generator_features, f.onednn))).contiguous();
+    ReluInPlace(initial);
+    tuning_features = f.tuning->Features(torch::cat({input, initial}, 1));
+  }
+  // Bilinear samples of the features at the chart vertices as a [1, rows, 1, A] image, with a
+  // row of the stencil weights' sums after each generator's features (the biases' channel).
+  const int64_t fg = f.generator_features, ft = f.tuning_features;
+  const int64_t rows = tuned ? fg + 1 + ft + 1 : fg + 1;
+  torch::Tensor sampled = torch::empty({1, rows, 1, A}, torch::kFloat32);
+  const int32_t* pixels = m.geometry->sample_pixels.data();
+  const float* weights = m.geometry->sample_weights.data();
+  auto sample = [&](const torch::Tensor& features, int64_t channels, int64_t first_row) {
+    const float* data = features.data_ptr<float>();
+    for (int64_t c = 0; c < channels; ++c) {
+      const float* image = data + c * H * H;
+      float* row = sampled.data_ptr<float>() + (first_row + c) * A;
+      for (int64_t k = 0; k < A; ++k) {
+        const int32_t* p = pixels + 4 * k;
+        const float* w = weights + 4 * k;
+        row[k] = w[0] * image[p[0]] + w[1] * image[p[1]] + w[2] * image[p[2]] + w[3] * image[p[3]];
+      }
+    }
+    float* ones = sampled.data_ptr<float>() + (first_row + channels) * A;
+    for (int64_t k = 0; k < A; ++k) {
+      const float* w = weights + 4 * k;
+      ones[k] = w[0] + w[1] + w[2] + w[3];
+    }
+  };
+  sample(generator_features, fg, 0);
+  if (tuned) sample(tuning_features, ft, fg + 1);
+  // [1, 3N, 1, A]: channel 3 i + d, vertex k; written as [N, A, 3].
+  const torch::Tensor offsets = ToDense((tuned ? f.output_tuned : f.output)(ToNet(sampled, f.onednn))).contiguous();
+  std::vector<float> out(static_cast<size_t>(N) * A * 3);
+  const float* y = offsets.data_ptr<float>();
+  for (int64_t i = 0; i < N; ++i) {
+    for (int64_t d = 0; d < 3; ++d) {
+      const float* channel = y + (3 * i + d) * A;
+      float* o = out.data() + i * A * 3 + d;
+      for (int64_t k = 0; k < A; ++k) o[3 * k] = channel[k];
+    }
+  }
+  return out;
+}
+
+void BlendshapeGenerator::PrepareInference() const {
+  const int64_t H = impl_->H();
+  PredictOffsets(std::vector<float>(static_cast<size_t>(3 * H * H), 0.f), true);
+}
+
+std::vector<float> BlendshapeGenerator::PredictOffsetsWithModules(const std::vector<float>& neutral_image,
+                                                                  bool tuned) const {
+  Impl& m = *impl_;
   torch::NoGradGuard no_grad;
   const int64_t H = m.H();
   if (static_cast<int64_t>(neutral_image.size()) != 3 * H * H) {

@@ -97,7 +97,16 @@ class BlendshapeGenerator {
 
   // The personalized offsets Delta S_i (eq. 3) for one neutral image [3, H, W]: [N, A, 3]
   // (cm). tuned: Estimation + Tuning generator (the final shapes); else Estimation only.
+  // Runs an inference form of the networks, prepared on the first call after the parameters
+  // change (oneDNN convolutions; output layers, channel order and sampling folded into one
+  // matrix); safe to call from several threads.
   std::vector<float> PredictOffsets(const std::vector<float>& neutral_image, bool tuned) const;
+  // Builds the inference form now and runs it once on a zero image (which creates the
+  // convolution kernels), so that the first PredictOffsets costs what later ones do.
+  void PrepareInference() const;
+  // The same through the training modules' forward (the reference PredictOffsets matches to
+  // float rounding; slower).
+  std::vector<float> PredictOffsetsWithModules(const std::vector<float>& neutral_image, bool tuned) const;
 
  private:
   struct Impl;

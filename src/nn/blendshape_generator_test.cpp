@@ -1,0 +1,159 @@
+// The blendshape generator's inference form (PredictOffsets: oneDNN convolutions, output layers
+// and sampling folded into one matrix) against the training modules' forward on small random
+// networks: the same offsets to float rounding, with and without the Tuning Stage, after the
+// parameters change, and from several threads at once.
+#include "nn/blendshape_generator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include <ATen/Context.h>
+#include <gtest/gtest.h>
+
+#include "util/random.h"
+
+namespace facecap::nn {
+namespace {
+
+constexpr int kSize = 16;
+
+// A geometry of `shapes` shapes on `vertices` chart vertices with random stencils and template.
+std::shared_ptr<BlendshapeNetGeometry> RandomGeometry(int shapes, const std::vector<int>& large, int vertices,
+                                                      uint64_t seed) {
+  Rng rng(seed, 0);
+  auto g = std::make_shared<BlendshapeNetGeometry>();
+  g->image_size = kSize;
+  g->num_shapes = shapes;
+  g->num_chart_vertices = vertices;
+  g->large_motion_shapes = large;
+  for (int i = 0; i < shapes * vertices * 3; ++i) g->template_deltas.push_back(static_cast<float>(rng.Normal()));
+  g->reg_weights.assign(static_cast<size_t>(shapes) * vertices, 1.f);
+  for (int k = 0; k < vertices; ++k) {
+    const int x = static_cast<int>(rng.UniformInt(kSize - 1)), y = static_cast<int>(rng.UniformInt(kSize - 1));
+    const float tx = static_cast<float>(rng.Uniform()), ty = static_cast<float>(rng.Uniform());
+    for (int p : {y * kSize + x, y * kSize + x + 1, (y + 1) * kSize + x, (y + 1) * kSize + x + 1}) {
+      g->sample_pixels.push_back(p);
+    }
+    for (float w : {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty}) g->sample_weights.push_back(w);
+  }
+  g->num_static_channels = 4;
+  for (int i = 0; i < 4 * kSize * kSize; ++i) g->static_channels.push_back(static_cast<float>(rng.Normal()));
+  return g;
+}
+
+BlendshapeNetOptions SmallNetwork() {
+  BlendshapeNetOptions o;
+  o.channels = 4;
+  o.residual_blocks = 2;
+  return o;
+}
+
+std::vector<float> RandomImage(uint64_t seed) {
+  Rng rng(seed, 1);
+  std::vector<float> image(3 * kSize * kSize);
+  for (float& v : image) v = static_cast<float>(rng.Normal());
+  return image;
+}
+
+// The initial parameters with noise on every one (the output layers start at zero).
+void Perturb(BlendshapeGenerator* model, uint64_t seed, double sigma = 0.05) {
+  Rng rng(seed, 2);
+  std::vector<float> p = model->Parameters();
+  for (float& v : p) v += static_cast<float>(sigma * rng.Normal());
+  model->SetParameters(p);
+}
+
+// Largest difference relative to the largest reference value; the reference must move.
+double RelativeDifference(const std::vector<float>& fast, const std::vector<float>& reference) {
+  EXPECT_EQ(fast.size(), reference.size());
+  double diff = 0, scale = 0;
+  for (size_t i = 0; i < std::min(fast.size(), reference.size()); ++i) {
+    diff = std::max(diff, static_cast<double>(std::abs(fast[i] - reference[i])));
+    scale = std::max(scale, static_cast<double>(std::abs(reference[i])));
+  }
+  EXPECT_GT(scale, 1e-3) << "the reference offsets are all but zero";
+  return diff / scale;
+}
+
+constexpr double kTolerance = 1e-5;
+
+TEST(BlendshapeGenerator, InferenceFormMatchesTheModulesWithAndWithoutTuning) {
+  struct Case { int shapes; std::vector<int> large; };
+  for (const Case& c : {Case{20, {3, 7, 1, 12, 18}}, Case{9, {0, 1, 2, 3, 4, 5, 6, 7}}}) {
+    BlendshapeGenerator model(SmallNetwork(), RandomGeometry(c.shapes, c.large, 37, c.shapes));
+    Perturb(&model, 5);
+    for (uint64_t seed : {1, 2}) {
+      const std::vector<float> image = RandomImage(seed);
+      for (bool tuned : {false, true}) {
+        const std::vector<float> fast = model.PredictOffsets(image, tuned);
+        ASSERT_EQ(fast.size(), static_cast<size_t>(c.shapes) * 37 * 3);
+        EXPECT_LT(RelativeDifference(fast, model.PredictOffsetsWithModules(image, tuned)), kTolerance)
+            << c.shapes << " shapes, tuned " << tuned;
+      }
+    }
+  }
+}
+
+TEST(BlendshapeGenerator, InferenceFormWithoutOneDnnMatchesTheModules) {
+  const bool enabled = at::globalContext().userEnabledMkldnn();
+  at::globalContext().setUserEnabledMkldnn(false);
+  BlendshapeGenerator model(SmallNetwork(), RandomGeometry(20, {3, 7, 1, 12, 18}, 37, 2));
+  Perturb(&model, 9);
+  const std::vector<float> image = RandomImage(4);
+  const std::vector<float> fast = model.PredictOffsets(image, true);
+  const std::vector<float> reference = model.PredictOffsetsWithModules(image, true);
+  at::globalContext().setUserEnabledMkldnn(enabled);
+  EXPECT_LT(RelativeDifference(fast, reference), kTolerance);
+}
+
+TEST(BlendshapeGenerator, InferenceFormFollowsParameterChanges) {
+  const auto geometry = RandomGeometry(12, {2, 5, 9}, 25, 3);
+  BlendshapeGenerator model(SmallNetwork(), geometry);
+  Perturb(&model, 6);
+  const std::vector<float> image = RandomImage(3);
+  const std::vector<float> before = model.PredictOffsets(image, true);
+  // A training step (Backward + OptimizerStep) changes the parameters in place.
+  BlendshapePerson person;
+  person.num_expressions = 2;
+  person.neutral_image = image;
+  Rng rng(4, 0);
+  for (int i = 0; i < 25 * 3; ++i) person.neutral.push_back(static_cast<float>(rng.Normal()));
+  for (int i = 0; i < 2 * 25 * 3; ++i) person.expressions.push_back(static_cast<float>(rng.Normal()));
+  for (int i = 0; i < 2 * 3 * kSize * kSize; ++i) person.expression_images.push_back(static_cast<float>(rng.Normal()));
+  for (int i = 0; i < 2 * 12; ++i) person.nominal_weights.push_back(i % 3 == 0 ? 1.f : 0.f);
+  for (TrainingStage stage : {TrainingStage::kEstimation, TrainingStage::kTuning}) {
+    model.Backward({&person}, stage, 1.f);
+    model.OptimizerStep(stage);
+    const std::vector<float> after = model.PredictOffsets(image, true);
+    EXPECT_LT(RelativeDifference(after, model.PredictOffsetsWithModules(image, true)), kTolerance);
+    EXPECT_NE(after, before);
+  }
+  // SetParameters back to the first parameters gives the first offsets again.
+  BlendshapeGenerator other(SmallNetwork(), geometry);
+  Perturb(&other, 6);
+  model.SetParameters(other.Parameters());
+  EXPECT_LT(RelativeDifference(model.PredictOffsets(image, true), before), kTolerance);
+}
+
+TEST(BlendshapeGenerator, InferenceFromSeveralThreadsMatchesOneThread) {
+  BlendshapeGenerator model(SmallNetwork(), RandomGeometry(15, {0, 4, 8, 11}, 30, 7));
+  Perturb(&model, 8);
+  std::vector<std::vector<float>> images, expected(4), got(4);
+  for (int t = 0; t < 4; ++t) images.push_back(RandomImage(10 + t));
+  model.PrepareInference();
+  for (int t = 0; t < 4; ++t) expected[t] = model.PredictOffsets(images[t], true);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 4; ++t) {
+    threads.emplace_back([&, t] {
+      for (int r = 0; r < 3; ++r) got[t] = model.PredictOffsets(images[t], true);
+    });
+  }
+  for (auto& th : threads) th.join();
+  for (int t = 0; t < 4; ++t) EXPECT_LT(RelativeDifference(got[t], expected[t]), kTolerance) << t;
+}
+
+}  // namespace
+}  // namespace facecap::nn
