@@ -415,6 +415,7 @@ LoadedModel LoadModel(const std::string& path) {
   m.setup = MakeNetSetup(m.topology, m.tmpl, size);
   m.model = std::make_unique<nn::BlendshapeGenerator>(no, m.setup.geometry);
   m.model->SetParameters(f.ReadVector<float>("/model/parameters", m.model->NumParameters()));
+  m.model->PrepareInference();
   return m;
 }
 
