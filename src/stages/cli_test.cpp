@@ -114,6 +114,33 @@ TEST(Cli, RunChecksEveryStageBeforeTheFirstStartsAndRejectsAJobWithoutStages) {
   EXPECT_NE(none.output.find("no stage to run"), std::string::npos) << none.output;
 }
 
+// One job runs a stage twice through an instance table [STAGE-NAME]: each run reads its own
+// table, is skipped on a rerun when up to date, and an instance [run] does not name is an
+// unknown table.
+TEST(Cli, RunStageInstancesReadTheirOwnTables) {
+  testing::TempDir dir;
+  const std::string job = dir.File("job.toml");
+  std::ofstream(job) << "[run]\nstages = ['rig.demo', 'rig.demo-other']\n"
+                     << "[rig.demo]\nout = '" << dir.File("a.h5") << "'\n"
+                     << "[rig.demo-other]\nout = '" << dir.File("b.h5") << "'\nidentity_seed = 5\n";
+  Result r = RunFacecap("run " + job);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(std::ifstream(dir.File("a.h5")).good());
+  EXPECT_TRUE(std::ifstream(dir.File("b.h5")).good());
+  EXPECT_NE(r.output.find("rig demo [rig.demo-other]"), std::string::npos) << r.output;
+  Result again = RunFacecap("run " + job + " --dry-run");
+  ASSERT_EQ(again.code, 0) << again.output;
+  EXPECT_NE(again.output.find("[2/2] rig demo [rig.demo-other]: up to date"), std::string::npos)
+      << again.output;
+  const std::string stray = dir.File("stray.toml");
+  std::ofstream(stray) << "[run]\nstages = ['rig.demo']\n"
+                       << "[rig.demo]\nout = '" << dir.File("c.h5") << "'\n"
+                       << "[rig.demo-other]\nout = '" << dir.File("d.h5") << "'\n";
+  Result bad = RunFacecap("run " + stray);
+  EXPECT_EQ(bad.code, kExitUsage) << bad.output;
+  EXPECT_NE(bad.output.find("unknown table [rig.demo-other]"), std::string::npos) << bad.output;
+}
+
 TEST(Cli, NumericFlagTextIsExactlyOneNumber) {
   EXPECT_EQ(NumberFlagToToml("42", true), "42");
   EXPECT_EQ(NumberFlagToToml("-7", true), "-7");

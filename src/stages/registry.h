@@ -28,8 +28,10 @@ struct StageSpec {
   std::string table;         // "synth.samples"
   std::string command;       // "synth samples"
   std::function<void(const StageFlags&)> run;
-  // Resolved TOML of the table (as stored in the output's config_hash) and the output path.
-  std::function<std::pair<std::string, std::string>(const io::Config&)> resolve;
+  // Resolved TOML of the stage's options read from table `table` (its own, or an instance
+  // such as [track-oracle]; as stored in the output's config_hash) and the output path.
+  std::function<std::pair<std::string, std::string>(const io::Config&, const std::string& table)>
+      resolve;
 };
 
 struct AppState {
@@ -62,10 +64,10 @@ CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
   spec.table = table;
   spec.command = command;
   spec.run = [=](const StageFlags& f) { run(f, state); };
-  spec.resolve = [table](const io::Config& config) {
-    Options options = io::ResolveOptions<Options>(config, table);
+  spec.resolve = [](const io::Config& config, const std::string& instance) {
+    Options options = io::ResolveOptions<Options>(config, instance);
     io::Config resolved;
-    io::StoreOptions(options, table, &resolved);
+    io::StoreOptions(options, instance, &resolved);
     std::string out;
     if constexpr (HasOut<Options>::value) out = options.out;
     return std::make_pair(resolved.ToToml(), out);

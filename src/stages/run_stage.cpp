@@ -1,5 +1,7 @@
 // facecap run JOB.toml: the job's stages in pipeline order; a stage whose output exists and
 // records the same configuration is skipped, so rerunning after a crash or a requeue continues.
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <iostream>
 
@@ -22,9 +24,16 @@ struct RunFlags {
   bool list = false;
 };
 
+// One entry of the plan: a stage and the table its options come from (its own table, or an
+// instance table "TABLE-NAME" such as [track-oracle], so that one job can run a stage twice).
+struct PlannedStage {
+  const StageSpec* spec = nullptr;
+  std::string table;
+};
+
 // Why a stage runs, or "" when its output is up to date.
-std::string WhyRun(const StageSpec& spec, const io::Config& config, std::string* out) {
-  const auto [resolved, output] = spec.resolve(config);
+std::string WhyRun(const PlannedStage& stage, const io::Config& config, std::string* out) {
+  const auto [resolved, output] = stage.spec->resolve(config, stage.table);
   *out = output;
   if (output.empty()) return "it has no recorded output";
   if (!std::filesystem::exists(output)) {
@@ -45,11 +54,26 @@ std::string WhyRun(const StageSpec& spec, const io::Config& config, std::string*
   return "";
 }
 
+// The stage a [run] entry names: a stage table, or an instance "TABLE-NAME" of one (NAME of
+// letters, digits and underscores). Null when it is neither.
+const StageSpec* FindStage(const AppState& state, const std::string& entry) {
+  for (const StageSpec& spec : state.stages) {
+    if (spec.table == entry) return &spec;
+  }
+  for (const StageSpec& spec : state.stages) {
+    const std::string& t = spec.table;
+    if (entry.size() > t.size() + 1 && entry.compare(0, t.size(), t) == 0 && entry[t.size()] == '-' &&
+        std::all_of(entry.begin() + t.size() + 1, entry.end(),
+                    [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; })) {
+      return &spec;
+    }
+  }
+  return nullptr;
+}
+
 void RunJob(const RunFlags& flags, AppState* state) {
   io::Config config = io::Config::Load(flags.job);
   for (const auto& s : flags.sets) config.SetAssignment(s);
-  // A misspelled table ([rigg]) would otherwise be a stage that silently never runs.
-  config.CheckTables(state->job_tables);
   // Which stages: [run] stages = [...] in that order, else every stage table present.
   std::vector<std::string> tables;
   if (config.Has("run", "stages")) {
@@ -64,20 +88,28 @@ void RunJob(const RunFlags& flags, AppState* state) {
       throw InvalidInputError(flags.job + ": unknown key '" + key + "' in [run]; valid keys: stages");
     }
   }
-  std::vector<const StageSpec*> plan;
+  std::vector<PlannedStage> plan;
+  std::vector<std::string> job_tables = state->job_tables;  // plus the instances [run] names
   for (const std::string& table : tables) {
-    const StageSpec* found = nullptr;
-    for (const StageSpec& spec : state->stages) {
-      if (spec.table == table) found = &spec;
-    }
+    const StageSpec* found = FindStage(*state, table);
     if (!found) {
       std::string valid;
       for (const StageSpec& spec : state->stages) valid += (valid.empty() ? "" : ", ") + spec.table;
       throw InvalidInputError(flags.job + ": [run] stages names '" + table +
-                              "', which is not a stage; stages: " + valid);
+                              "', which is not a stage (nor an instance STAGE-NAME of one); "
+                              "stages: " + valid);
     }
-    plan.push_back(found);
+    for (const PlannedStage& p : plan) {
+      if (p.table == table) {
+        throw InvalidInputError(flags.job + ": [run] stages names '" + table + "' twice; run a "
+                                "stage again with an instance table such as [" + table + "-2]");
+      }
+    }
+    plan.push_back({found, table});
+    if (table != found->table) job_tables.push_back(table);
   }
+  // A misspelled table ([rigg]) would otherwise be a stage that silently never runs.
+  config.CheckTables(job_tables);
   if (plan.empty()) {
     std::string valid;
     for (const StageSpec& spec : state->stages) valid += (valid.empty() ? "" : ", ") + spec.table;
@@ -85,14 +117,14 @@ void RunJob(const RunFlags& flags, AppState* state) {
   }
   // Every stage's options are read and range-checked before the first stage starts, so a bad
   // value in a late stage does not surface hours into the run.
-  for (const StageSpec* spec : plan) spec->resolve(config);
+  for (const PlannedStage& p : plan) p.spec->resolve(config, p.table);
   auto index_of = [&](const std::string& table, const char* flag) {
-    for (size_t i = 0; i < plan.size(); ++i) if (plan[i]->table == table) return i;
+    for (size_t i = 0; i < plan.size(); ++i) if (plan[i].table == table) return i;
     throw InvalidInputError(std::string("--") + flag + " " + table + ": not a stage of " + flags.job);
   };
   if (flags.list) {
     if (state->comm.IsMainRank()) {
-      for (const StageSpec* spec : plan) std::cout << spec->table << "\n";
+      for (const PlannedStage& p : plan) std::cout << p.table << "\n";
     }
     return;
   }
@@ -102,15 +134,17 @@ void RunJob(const RunFlags& flags, AppState* state) {
   const bool main_rank = state->comm.IsMainRank();
   if (main_rank) FC_INFO("run {}: {} stages", flags.job, plan.size());
   for (size_t i = 0; i < plan.size(); ++i) {
-    const StageSpec& spec = *plan[i];
+    const StageSpec& spec = *plan[i].spec;
+    const std::string label =
+        plan[i].table == spec.table ? spec.command : spec.command + " [" + plan[i].table + "]";
     std::string out;
-    std::string why = WhyRun(spec, config, &out);
+    std::string why = WhyRun(plan[i], config, &out);
     if (i < first || i > last) why = "";
     const bool forced = !flags.from.empty() && flags.only.empty() && i == first;
     if (forced && why.empty()) why = "--from starts here";
     if (flags.dry_run) {
       if (main_rank) {
-        std::cout << "[" << (i + 1) << "/" << plan.size() << "] " << spec.command << ": "
+        std::cout << "[" << (i + 1) << "/" << plan.size() << "] " << label << ": "
                   << (i < first || i > last ? "outside --from/--until, skipped"
                                             : why.empty() ? "up to date, skipped" : "runs: " + why)
                   << "\n";
@@ -119,16 +153,16 @@ void RunJob(const RunFlags& flags, AppState* state) {
     }
     if (i < first || i > last) continue;
     if (why.empty()) {
-      if (main_rank) FC_INFO("[{}/{}] {}: up to date ({}), skipped", i + 1, plan.size(), spec.command, out);
+      if (main_rank) FC_INFO("[{}/{}] {}: up to date ({}), skipped", i + 1, plan.size(), label, out);
       continue;
     }
-    if (main_rank) FC_INFO("[{}/{}] {}: runs because {}", i + 1, plan.size(), spec.command, why);
+    if (main_rank) FC_INFO("[{}/{}] {}: runs because {}", i + 1, plan.size(), label, why);
     if (forced && std::filesystem::exists(out)) std::filesystem::remove(out);
     StageFlags stage_flags;
     stage_flags.job = flags.job;
     stage_flags.sets = flags.sets;
-    stage_flags.table = spec.table;
-    stage_flags.job_tables = &state->job_tables;
+    stage_flags.table = plan[i].table;
+    stage_flags.job_tables = &job_tables;
     spec.run(stage_flags);
   }
   if (main_rank && !flags.dry_run) FC_INFO("run {}: done", flags.job);
