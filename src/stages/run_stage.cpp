@@ -164,6 +164,9 @@ void RunJob(const RunFlags& flags, AppState* state) {
     stage_flags.table = plan[i].table;
     stage_flags.job_tables = &job_tables;
     spec.run(stage_flags);
+    // Stages that write on rank 0 only return early elsewhere: the next stage reads what this
+    // one wrote, so every rank waits for it.
+    state->comm.Barrier();
   }
   if (main_rank && !flags.dry_run) FC_INFO("run {}: done", flags.job);
 }
