@@ -19,6 +19,7 @@
 #include "rig/evaluate.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
+#include "synth/appearance.h"
 #include "util/errors.h"
 #include "util/log.h"
 
@@ -155,6 +156,18 @@ class Renderer {
     shading_.region_albedo = PreviewAlbedo(rig);
     shading_.background_color = {0.05f, 0.05f, 0.06f};
     lighting_.ambient = {0.25f, 0.25f, 0.25f};
+    // A rig with UVs and the 68 landmarks is shown textured: the procedural skin albedo of the
+    // wild clips (skin tone, blotches, pores, redder cheeks, lips, brows, lash lines).
+    if (rig.uvs.rows() > 0 && rig.uv_triangles.rows() == rig.triangles.rows() &&
+        rig.landmarks.size() == 68) {
+      try {
+        texture_ = synth::MakeSkinTexture(rig, synth::DrawPersonColors(1), 1,
+                                          synth::SkinTextureOptions());
+        shading_.albedo_source = render::AlbedoSource::kTexture;
+      } catch (const InvalidInputError& e) {
+        FC_WARN("render: no skin texture for this rig ({}); shaded per region", e.what());
+      }
+    }
   }
 
   void Pose(const Framing& f, const Eigen::VectorXf& weights) {
@@ -171,8 +184,8 @@ class Renderer {
   Image8 Shaded() {
     render::VertexNormals(posed_, rig_.triangles, &normals_);
     ImageF linear;
-    render::RenderShaded(gbuffer_, posed_, normals_, rig_, lighting_, shading_, nullptr, nullptr,
-                         &linear);
+    render::RenderShaded(gbuffer_, posed_, normals_, rig_, lighting_, shading_,
+                         texture_.empty() ? nullptr : &texture_, nullptr, &linear);
     Image8 image;
     render::LinearToImage8(linear, true, &image);
     return image;
@@ -197,6 +210,7 @@ class Renderer {
   render::Camera camera_;
   render::GBuffer gbuffer_;
   rig::Vertices posed_, normals_;
+  ImageF texture_;  // albedo texture (empty: per-region albedo)
 };
 
 // The sheet's cells: a caption and weights by shape name (absent shapes are skipped).
