@@ -616,6 +616,12 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
                    std::string("E(D(E(I))) of the stored 8-bit translation (paper 000 Sec. 9)"));
     if (!output.resumed) {
       WriteRegions(&f, regions);
+      // Ingest's per-frame face flags travel with the translations: the tracker skips the
+      // frames without a face.
+      if (dataset == "/frames/crop" && frames_file.Exists("/frames/found")) {
+        f.WriteVector<uint8_t>("/frames/found", frames_file.ReadVector<uint8_t>("/frames/found", num_frames));
+        f.SetAttribute("/frames/found", "meaning", std::string("1: ingest found the face, 0: no face"));
+      }
       if (o.camera.empty()) {
         CopyScaledCamera(frames_file, size, &f);
       } else {

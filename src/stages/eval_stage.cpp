@@ -138,7 +138,11 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
   std::vector<double> per_shape(S, 0.);
   std::vector<double> pose_errors;
   rig::Vertices truth_posed, solved_posed;
+  // Frames the tracker had no face to solve (/track/termination 3) are not scored.
+  int64_t scored = 0;
   for (int64_t f = 0; f < frames; ++f) {
+    if (termination[f] == 3) continue;
+    ++scored;
     rig::RigidPose truth_pose;
     if (tt.rows() > 0) {
       truth_pose.pitch = tp(f, 0);
@@ -186,19 +190,21 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
       vertex_rel += (truth_posed - solved_posed).rowwise().norm().mean() / iod3;
     }
   }
-  const double n = static_cast<double>(std::max<int64_t>(frames, 1));
+  const double n = static_cast<double>(std::max<int64_t>(scored, 1));
   std::sort(pose_errors.begin(), pose_errors.end());
+  const double pose_median = pose_errors.empty() ? 0. : pose_errors[pose_errors.size() / 2];
   double sec = 0., cost_mean = 0.;
   int converged = 0;
   for (int64_t f = 0; f < frames; ++f) {
+    if (termination[f] == 3) continue;
     sec += seconds[f];
     cost_mean += cost[f];
     converged += termination[f] == 0;
   }
   std::ostringstream js;
-  js << "{\"frames\": " << frames << ", \"pose_err_deg_mean\": " << JsonNumber(pose_err / n)
-     << ", \"pose_err_deg_median\": "
-     << JsonNumber(frames ? pose_errors[pose_errors.size() / 2] : 0.)
+  js << "{\"frames\": " << scored << ", \"frames_without_target\": " << frames - scored
+     << ", \"pose_err_deg_mean\": " << JsonNumber(pose_err / n)
+     << ", \"pose_err_deg_median\": " << JsonNumber(pose_median)
      << ", \"translation_err_cm_mean\": " << JsonNumber(translation_err / n)
      << ", \"weights_mae\": " << JsonNumber(weight_err / n)
      << ", \"landmark_nme\": " << (has_eyes ? JsonNumber(nme / n) : "null")
@@ -216,8 +222,7 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
   } else {
     std::printf("frames %lld\npose error %.3f deg (median %.3f)\nweight MAE %.4f\n"
                 "landmark NME %.4f\nvertex error / IOD %.4f\nsec per frame %.4f\n",
-                static_cast<long long>(frames), pose_err / n,
-                frames ? pose_errors[pose_errors.size() / 2] : 0., weight_err / n, nme / n,
+                static_cast<long long>(scored), pose_err / n, pose_median, weight_err / n, nme / n,
                 vertex_rel / n, sec / n);
   }
   if (!o.out.empty()) {

@@ -337,8 +337,15 @@ void RunExportOverlay(const StageFlags& flags, AppState* state) {
   std::vector<Image8> video;
   video.reserve(count);
   Image8 frame(W, H, 3);
+  // Frames the tracker had no face to solve (termination 3) are shown without the rig.
+  std::vector<int32_t> termination;
+  if (track.Exists("/track/termination")) termination = track.ReadVector<int32_t>("/track/termination", tracked);
   for (int64_t f = 0; f < count; ++f) {
     frames_file.ReadFrames<uint8_t>(dataset, f, 1, frame.data.data());
+    if (!termination.empty() && termination[f] == 3) {
+      video.push_back(synth::UpscaleNearest(frame, o.scale));
+      continue;
+    }
     rig::RigidPose p;
     p.pitch = pose(f, 0);
     p.yaw = pose(f, 1);

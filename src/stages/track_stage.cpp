@@ -21,6 +21,9 @@
 namespace facecap::stages {
 namespace {
 
+// /track/termination of a frame without a face (Ceres's codes are 0-2).
+constexpr int32_t kNoTarget = 3;
+
 // [track]
 struct TrackOptions {
   std::string rig = "rig.h5";             // rig file (HDF5, /rig)
@@ -83,6 +86,7 @@ struct TargetsInfo {
   std::string images;         // dataset of target images
   std::string landmarks;      // dataset of 2D landmarks or empty
   std::string visible;        // dataset of landmark visibility or empty
+  std::vector<uint8_t> found; // per frame, 0: no face (nothing to track); empty: all frames
   int64_t frames = 0;
   int width = 0, height = 0;
   render::Camera camera;
@@ -121,6 +125,11 @@ TargetsInfo InspectTargets(const std::string& path, const std::string& dataset) 
   const std::string group = info.images.substr(0, info.images.rfind('/'));
   info.landmarks = FirstExisting(f, {group + "/landmarks"});
   info.visible = info.landmarks.empty() ? "" : FirstExisting(f, {group + "/landmark_visible"});
+  // Frames of real footage where ingest found no face (deepfake infer copies ingest's flags).
+  if (f.Exists(group + "/found")) {
+    f.CheckShape(group + "/found", {info.frames});
+    info.found = f.ReadVector<uint8_t>(group + "/found", info.frames);
+  }
   return info;
 }
 
@@ -181,7 +190,9 @@ void RunTrack(const StageFlags& flags, AppState* state) {
     f.CreateFrames<int32_t>("/track/evaluations", {}, frames, 1024, 4);
     f.CreateFrames<int32_t>("/track/termination", {}, frames, 1024, 4);
     f.SetAttribute("/track/termination", "codes",
-                   std::string("0 CONVERGENCE, 1 NO_CONVERGENCE, 2 FAILURE"));
+                   std::string("0 CONVERGENCE, 1 NO_CONVERGENCE, 2 FAILURE, 3 NO_TARGET (no face "
+                               "in the frame: not solved, the previous frame's solution held, "
+                               "or the neutral)"));
     f.CreateFrames<double>("/track/seconds", {}, frames, 1024, 4);
     f.SetAttribute("/track/seconds", "meaning", std::string("wall time of the frame's solve"));
     if (!output.resumed) {
@@ -269,7 +280,34 @@ void RunTrack(const StageFlags& flags, AppState* state) {
     const int64_t last = std::min(frames, first + unit_frames);
     rig::RigidPose pose = neutral_pose;
     Eigen::VectorXf weights = neutral_weights;
+    auto put = [&](const rig::RigidPose& p, const Eigen::VectorXf& x,
+                   const track::FrameSummary& summary, int32_t termination) {
+      const float angles[3] = {p.pitch, p.yaw, p.roll};
+      w.PutArray(angles, 3);
+      w.PutArray(p.translation.data(), 3);
+      w.Put<float>(p.scale);
+      w.PutArray(x.data(), S);
+      w.Put<double>(summary.final_cost);
+      w.Put<double>(summary.initial_cost);
+      w.Put<int32_t>(summary.iterations);
+      w.Put<int32_t>(summary.evaluations);
+      w.Put<int32_t>(termination);
+      w.Put<double>(summary.seconds);
+    };
     for (int64_t frame = first; frame < last; ++frame) {
+      if (!info.found.empty() && !info.found[frame]) {
+        // No face here: nothing to solve. The solution so far is held (the neutral when the
+        // frames are independent), so exports stay continuous and the next frame of a
+        // sequential segment starts from the last face seen, not from a fit to an empty image.
+        if (o.init != "previous") {
+          pose = neutral_pose;
+          weights = neutral_weights;
+        }
+        track::FrameSummary none;
+        none.final_cost = none.initial_cost = std::nan("");
+        put(pose, weights, none, kNoTarget);
+        continue;
+      }
       const track::TrackTarget target = read_target(frame);
       if (o.init == "landmarks") {
         pose = tracker.PoseFromLandmarks(target, neutral_pose, neutral_weights);
@@ -281,17 +319,7 @@ void RunTrack(const StageFlags& flags, AppState* state) {
       const track::TrackResult r = tracker.Solve(target, pose, weights);
       pose = r.pose;
       weights = r.weights;
-      const float angles[3] = {r.pose.pitch, r.pose.yaw, r.pose.roll};
-      w.PutArray(angles, 3);
-      w.PutArray(r.pose.translation.data(), 3);
-      w.Put<float>(r.pose.scale);
-      w.PutArray(r.weights.data(), S);
-      w.Put<double>(r.summary.final_cost);
-      w.Put<double>(r.summary.initial_cost);
-      w.Put<int32_t>(r.summary.iterations);
-      w.Put<int32_t>(r.summary.evaluations);
-      w.Put<int32_t>(static_cast<int32_t>(r.summary.termination));
-      w.Put<double>(r.summary.seconds);
+      put(pose, weights, r.summary, static_cast<int32_t>(r.summary.termination));
     }
     return std::move(w.bytes());
   };

@@ -1,5 +1,6 @@
 // facecap track and eval track end to end on a few 64x64 synthetic samples: rank-count
 // independence, a killed run continued to the uninterrupted result, and the metrics JSON.
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 
@@ -113,6 +114,49 @@ TEST_F(TrackStage, RankKilledMidRunOnThreeRanksContinuesOnTwo) {
   EXPECT_NE(rerun.output.find("continuing"), std::string::npos) << rerun.output;
   EXPECT_NE(rerun.output.find("3 of 5"), std::string::npos) << rerun.output;
   ExpectSameDatasets(straight, killed);
+}
+
+// Real footage has frames without a face (ingest's /frames/found, copied beside the
+// translations): such a frame is not solved, the previous frame's solution is held, the next
+// frame starts from it, and the evaluation leaves the frame out.
+TEST_F(TrackStage, FramesWithoutAFaceAreHeldNotSolved) {
+  const std::string targets = File("targets_found.h5");
+  std::filesystem::copy_file(File("samples.h5"), targets,
+                             std::filesystem::copy_options::overwrite_existing);
+  {
+    io::H5File f = io::H5File::OpenReadWrite(targets);
+    f.WriteVector<uint8_t>("/samples/found", {1, 1, 0, 1, 1});
+  }
+  const std::string out = File("held.h5"), plain = File("plain.h5");
+  const std::string common = " --rig " + File("rig.h5") +
+                             " --levels 1 --epochs 2 --init previous --segment-frames 5 --out ";
+  auto r = RunFacecap("track --targets " + targets + common + out, 2);
+  ASSERT_EQ(r.code, 0) << r.output;
+  auto p = RunFacecap("track --targets " + File("samples.h5") + common + plain);
+  ASSERT_EQ(p.code, 0) << p.output;
+  io::H5File f = io::H5File::OpenRead(out), g = io::H5File::OpenRead(plain);
+  const auto termination = f.ReadVector<int32_t>("/track/termination");
+  const auto cost = f.ReadVector<double>("/track/cost");
+  const auto pose = f.ReadMatrix<float>("/track/pose", 5, 3);
+  const auto weights = f.Read<float>("/track/weights", {});
+  const auto plain_pose = g.ReadMatrix<float>("/track/pose", 5, 3);
+  EXPECT_EQ(termination[2], 3);
+  EXPECT_TRUE(std::isnan(cost[2]));
+  EXPECT_EQ(pose.row(2), pose.row(1)) << "the frame without a face holds the previous solution";
+  const size_t S = weights.size() / 5;
+  for (size_t k = 0; k < S; ++k) EXPECT_EQ(weights[2 * S + k], weights[S + k]);
+  // Frames before it are solved as without the flags; frame 3 is solved, not held.
+  EXPECT_EQ(pose.row(0), plain_pose.row(0));
+  EXPECT_EQ(pose.row(1), plain_pose.row(1));
+  EXPECT_NE(termination[3], 3);
+  EXPECT_TRUE(std::isfinite(cost[3]));
+
+  auto e = RunFacecap("eval track --truth " + File("samples.h5") + " --track " + out +
+                      " --rig " + File("rig.h5") + " --json");
+  ASSERT_EQ(e.code, 0) << e.output;
+  EXPECT_NE(e.output.find("\"frames\": 4, \"frames_without_target\": 1"), std::string::npos)
+      << e.output;
+  EXPECT_EQ(e.output.find("nan"), std::string::npos) << e.output;
 }
 
 TEST_F(TrackStage, RejectsBadOptions) {
