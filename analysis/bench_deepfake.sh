@@ -5,7 +5,8 @@
 #
 #   analysis/bench_deepfake.sh [BUILD_DIR] [-- extra `deepfake train` flags]
 #
-# Environment: SIZE (default 64), BATCH (global batch, default 16), STEPS (default 20).
+# Environment: SIZE (default 64), BATCH (global batch, default 16), STEPS (default 60),
+# REPEATS (default 3; the median counts).
 set -euo pipefail
 
 source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -18,7 +19,7 @@ fi
 facecap="${build_dir}/facecap"
 size="${SIZE:-64}"
 batch="${BATCH:-16}"
-steps="${STEPS:-20}"
+steps="${STEPS:-60}"
 tmp_dir="$(mktemp -d)"
 trap 'rm -rf "${tmp_dir}"' EXIT
 cd "${tmp_dir}"
@@ -30,7 +31,7 @@ mpi() { mpirun --oversubscribe --allow-run-as-root -n "$1" "${@:2}"; }
 
 # Steps per second of the last progress line (the rate over the whole run, start-up excluded).
 rate() {
-  local ranks="$1" threads="$2" out="run_${1}x${2}.h5"
+  local ranks="$1" threads="$2" out="run_${1}x${2}_${BENCH_TAG:-}.h5"
   shift 2
   OMP_NUM_THREADS="${threads}" mpi "${ranks}" "${facecap}" deepfake train --a a.h5 --b b.h5 \
     --size "${size}" --batch "${batch}" --steps "${steps}" --checkpoint-every 0 \
@@ -39,9 +40,19 @@ rate() {
 }
 
 echo "# facecap deepfake training benchmark: ${size}x${size}, global batch ${batch}, ${steps} steps ($(uname -m), $(getconf _NPROCESSORS_ONLN) cores)"
-r1="$(rate 1 1 "$@")"
-r2="$(rate 2 1 "$@")"
-r12="$(rate 1 2 "$@")"
+# This machine's speed varies from minute to minute (shared host): each configuration runs
+# REPEATS times, interleaved, and the median counts.
+median() { sort -g | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }'; }
+: > r1.txt; : > r2.txt; : > r12.txt
+for repeat in $(seq "${REPEATS:-3}"); do
+  BENCH_TAG=${repeat} rate 1 1 "$@" >> r1.txt
+  BENCH_TAG=${repeat} rate 2 1 "$@" >> r2.txt
+  BENCH_TAG=${repeat} rate 1 2 "$@" >> r12.txt
+done
+echo "# steps/s per repeat: 1x1 $(paste -sd' ' r1.txt); 2x1 $(paste -sd' ' r2.txt); 1x2 $(paste -sd' ' r12.txt)"
+r1="$(median < r1.txt)"
+r2="$(median < r2.txt)"
+r12="$(median < r12.txt)"
 awk -v r1="${r1}" -v r2="${r2}" -v r12="${r12}" -v b="${batch}" 'BEGIN {
   printf "%-24s %10s %12s %10s\n", "configuration", "steps/s", "images/s", "speed-up";
   printf "%-24s %10.3f %12.1f %10.2f\n", "1 rank x 1 thread", r1, r1 * b * 2, 1;
