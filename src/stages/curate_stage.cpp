@@ -284,7 +284,8 @@ void RunCurateQuery(const StageFlags& flags, AppState* state) {
   const io::H5File frames = io::H5File::OpenRead(frames_path);
   const int size = CropSize(frames);
   const face::CropOptions crop_options{
-      size, frames.HasAttribute("/", "crop_padding") ? frames.GetDoubleAttribute("/", "crop_padding") : 0.25};
+      size, frames.HasAttribute("/", "crop_padding") ? frames.GetDoubleAttribute("/", "crop_padding") : 0.25,
+      frames.HasAttribute("/", "crop_raise") ? frames.GetDoubleAttribute("/", "crop_raise") : 0.0};
 
   std::vector<QueryItem> queries;
   if (o.frame >= 0) {

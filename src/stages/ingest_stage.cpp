@@ -47,7 +47,7 @@ bool IngestOptions::Check(std::string* why) const {
   if (max_image_pixels < 10000) { *why = "max_image_pixels must be >= 10000"; return false; }
   if (batch < 1) { *why = "batch must be >= 1"; return false; }
   if (threads < 0) { *why = "threads must be >= 0"; return false; }
-  face::CropOptions crop{crop_size, crop_padding};
+  face::CropOptions crop{crop_size, crop_padding, crop_raise};
   if (!crop.Check(why)) return false;
   face::SubjectTrackerOptions track{track_min_iou, track_max_gap};
   if (!track.Check(why)) return false;
@@ -164,7 +164,7 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
   const int64_t n = static_cast<int64_t>(selected.size());
   const face::FrameSource& source = *sources[0];
   const int S = o.crop_size;
-  const face::CropOptions crop_options{o.crop_size, o.crop_padding};
+  const face::CropOptions crop_options{o.crop_size, o.crop_padding, o.crop_raise};
 
   // Rank 0 opens (or continues) the output.
   ResumableOutput output;
@@ -214,6 +214,7 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
       f.SetAttribute("/sources/files", "fps", source.Fps());
       f.SetAttribute("/sources/files", "num_frames", source.NumFrames());
       f.SetAttribute("/", "crop_padding", o.crop_padding);
+      f.SetAttribute("/", "crop_raise", o.crop_raise);
     }
     io::DoneMask detected(&f, n, "/progress/detected");
     pending_detect = detected.Pending();

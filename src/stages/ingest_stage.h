@@ -47,6 +47,7 @@ struct IngestOptions {
   int detect_small_max_side = 1280;   // longer side of the small-face search (0: none)
   int crop_size = 128;                // aligned crop width and height
   double crop_padding = 0.25;         // margin around the mean face in the crop
+  double crop_raise = 0.0;            // the face moved up by this fraction of the crop
   float track_min_iou = 0.25f;        // box overlap that continues the subject
   int track_max_gap = 10;             // frames without the subject before a new one is taken
   int64_t max_image_pixels = 40000000;  // larger images are processed scaled down
@@ -81,6 +82,8 @@ struct IngestOptions {
       "search)");
     v("crop_size", crop_size, "aligned crop width and height in pixels");
     v("crop_padding", crop_padding, "margin around the mean face in the crop, in face sizes");
+    v("crop_raise", crop_raise,
+      "the face moved up by this fraction of the crop height (negative: down)");
     v("track_min_iou", track_min_iou, "box overlap (IoU) with the subject's last box that "
                                       "continues the subject");
     v("track_max_gap", track_max_gap, "frames without the subject after which the largest face "
