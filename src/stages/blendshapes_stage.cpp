@@ -259,7 +259,7 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
   const float input_scale = RmsOverChart(chart, train_neutrals, template_column);
   const float expression_scale = RmsOverChart(chart, train_expressions, template_column);
   // Training people as the networks see them.
-  const int K = static_cast<int>(data.alpha.rows()), N = data.tmpl.NumShapes();
+  const int K = static_cast<int>(data.alpha.rows());
   std::vector<nn::BlendshapePerson> people(train.size());
   const std::vector<float> zero_image(setup.template_image.size(), 0.f);
   ParallelFor(0, static_cast<int>(train.size()), ThreadsPerRank(o.threads), [&](int t) {

@@ -141,6 +141,31 @@ TEST(Cli, RunStageInstancesReadTheirOwnTables) {
   EXPECT_NE(bad.output.find("unknown table [rig.demo-other]"), std::string::npos) << bad.output;
 }
 
+// A stage reruns when one of its HDF5 inputs was rewritten after its output (make's rule):
+// rerunning the rig makes the render sheet's source stale, and the next run redoes it.
+TEST(Cli, RunRedoesAStageWhoseInputIsNewerThanItsOutput) {
+  testing::TempDir dir;
+  const std::string job = dir.File("job.toml");
+  std::ofstream(job) << "[run]\nstages = ['rig.demo', 'synth.samples']\n"
+                     << "[rig.demo]\nout = '" << dir.File("rig.h5") << "'\n"
+                     << "[synth.samples]\nrig = '" << dir.File("rig.h5") << "'\ncount = 2\nsize = 32\n"
+                     << "out = '" << dir.File("samples.h5") << "'\n";
+  ASSERT_EQ(RunFacecap("run " + job).code, 0);
+  Result fresh = RunFacecap("run " + job + " --dry-run");
+  EXPECT_NE(fresh.output.find("[2/2] synth samples: up to date"), std::string::npos) << fresh.output;
+  // The rig is made again (forced), so the samples are older than their input.
+  ASSERT_EQ(RunFacecap("run " + job + " --from rig.demo --until rig.demo").code, 0);
+  Result stale = RunFacecap("run " + job + " --dry-run");
+  EXPECT_NE(stale.output.find("[1/2] rig demo: up to date"), std::string::npos) << stale.output;
+  EXPECT_NE(stale.output.find("[2/2] synth samples: runs: its input " + dir.File("rig.h5") +
+                              " is newer than its output"),
+            std::string::npos)
+      << stale.output;
+  ASSERT_EQ(RunFacecap("run " + job).code, 0);
+  Result again = RunFacecap("run " + job + " --dry-run");
+  EXPECT_NE(again.output.find("[2/2] synth samples: up to date"), std::string::npos) << again.output;
+}
+
 TEST(Cli, NumericFlagTextIsExactlyOneNumber) {
   EXPECT_EQ(NumberFlagToToml("42", true), "42");
   EXPECT_EQ(NumberFlagToToml("-7", true), "-7");

@@ -32,6 +32,18 @@ struct StageSpec {
   // such as [track-oracle]; as stored in the output's config_hash) and the output path.
   std::function<std::pair<std::string, std::string>(const io::Config&, const std::string& table)>
       resolve;
+  // Every text option of the stage read from `table` (file names among them): what
+  // `facecap run` checks for inputs newer than the output.
+  std::function<std::vector<std::string>(const io::Config&, const std::string& table)> texts;
+};
+
+// Collects the text (std::string) options of an options struct through its Visit.
+struct TextOptionCollector {
+  std::vector<std::string>* texts;
+  template <class T>
+  void operator()(const char* /*key*/, T& value, const char* /*help*/) {
+    if constexpr (std::is_same_v<T, std::string>) texts->push_back(value);
+  }
 };
 
 struct AppState {
@@ -71,6 +83,12 @@ CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
     std::string out;
     if constexpr (HasOut<Options>::value) out = options.out;
     return std::make_pair(resolved.ToToml(), out);
+  };
+  spec.texts = [](const io::Config& config, const std::string& instance) {
+    Options options = io::ResolveOptions<Options>(config, instance);
+    std::vector<std::string> texts;
+    options.Visit(TextOptionCollector{&texts});
+    return texts;
   };
   state->stages.push_back(spec);
   return sub;

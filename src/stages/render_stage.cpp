@@ -288,7 +288,8 @@ void RunRender(const StageFlags& flags, AppState* state) {
                   w);
     tiles.push_back(renderer.Segmentation());
     tiles.push_back(renderer.Shaded());
-    captions << "cell " << index++ << " (row " << (index - 1) / 3 << ", pair " << (index - 1) % 3
+    const int cell_index = index++;
+    captions << "cell " << cell_index << " (row " << cell_index / 3 << ", pair " << cell_index % 3
              << "): " << c.caption << "\n";
   }
   render::ContactSheetOptions sheet_options;

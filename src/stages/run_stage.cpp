@@ -32,7 +32,11 @@ struct PlannedStage {
 };
 
 // Why a stage runs, or "" when its output is up to date.
-std::string WhyRun(const PlannedStage& stage, const io::Config& config, std::string* out) {
+// *stale: the output is complete but older than an input; it must be removed before the stage
+// runs, since the stage itself would find it up to date.
+std::string WhyRun(const PlannedStage& stage, const io::Config& config, std::string* out,
+                   bool* stale) {
+  *stale = false;
   const auto [resolved, output] = stage.spec->resolve(config, stage.table);
   *out = output;
   if (output.empty()) return "it has no recorded output";
@@ -50,6 +54,17 @@ std::string WhyRun(const PlannedStage& stage, const io::Config& config, std::str
     }
   } catch (const FileIOError& e) {
     return std::string("its output is unreadable: ") + e.what();
+  }
+  // Make's rule for the pipeline's intermediates: an HDF5 input rewritten after the output
+  // was made (an earlier stage reran, a file was replaced) makes the output stale.
+  const auto made = std::filesystem::last_write_time(output);
+  for (const std::string& path : stage.spec->texts(config, stage.table)) {
+    std::error_code error;
+    if (path.empty() || path == output || !std::filesystem::is_regular_file(path, error)) continue;
+    if (std::filesystem::last_write_time(path, error) > made && !error && io::H5File::IsHdf5(path)) {
+      *stale = true;
+      return "its input " + path + " is newer than its output";
+    }
   }
   return "";
 }
@@ -138,7 +153,8 @@ void RunJob(const RunFlags& flags, AppState* state) {
     const std::string label =
         plan[i].table == spec.table ? spec.command : spec.command + " [" + plan[i].table + "]";
     std::string out;
-    std::string why = WhyRun(plan[i], config, &out);
+    bool stale = false;
+    std::string why = WhyRun(plan[i], config, &out, &stale);
     if (i < first || i > last) why = "";
     const bool forced = !flags.from.empty() && flags.only.empty() && i == first;
     if (forced && why.empty()) why = "--from starts here";
@@ -157,7 +173,7 @@ void RunJob(const RunFlags& flags, AppState* state) {
       continue;
     }
     if (main_rank) FC_INFO("[{}/{}] {}: runs because {}", i + 1, plan.size(), label, why);
-    if (forced && std::filesystem::exists(out)) std::filesystem::remove(out);
+    if ((forced || stale) && std::filesystem::exists(out)) std::filesystem::remove(out);
     StageFlags stage_flags;
     stage_flags.job = flags.job;
     stage_flags.sets = flags.sets;
