@@ -57,7 +57,9 @@ std::string WhyRun(const PlannedStage& stage, const io::Config& config, std::str
   }
   // Make's rule for the pipeline's intermediates: an HDF5 input rewritten after the output
   // was made (an earlier stage reran, a file was replaced) makes the output stale.
-  const auto made = std::filesystem::last_write_time(output);
+  std::error_code made_error;
+  const auto made = std::filesystem::last_write_time(output, made_error);
+  if (made_error) return "its output " + output + " cannot be inspected: " + made_error.message();
   for (const std::string& path : stage.spec->texts(config, stage.table)) {
     std::error_code error;
     if (path.empty() || path == output || !std::filesystem::is_regular_file(path, error)) continue;
@@ -152,10 +154,19 @@ void RunJob(const RunFlags& flags, AppState* state) {
     const StageSpec& spec = *plan[i].spec;
     const std::string label =
         plan[i].table == spec.table ? spec.command : spec.command + " [" + plan[i].table + "]";
+    // Rank 0 decides (and alone removes a stale output): every rank must take the same branch.
     std::string out;
     bool stale = false;
-    std::string why = WhyRun(plan[i], config, &out, &stale);
-    if (i < first || i > last) why = "";
+    std::string why;
+    dist::CoordinateExceptions(state->comm, [&] {
+      if (main_rank && !(i < first || i > last)) why = WhyRun(plan[i], config, &out, &stale);
+    });
+    int decision[2] = {why.empty() ? 0 : 1, stale ? 1 : 0};
+    state->comm.Broadcast(decision, sizeof(decision));
+    if (!main_rank) {
+      why = decision[0] ? "rank 0 found it out of date" : "";
+      stale = decision[1] != 0;
+    }
     const bool forced = !flags.from.empty() && flags.only.empty() && i == first;
     if (forced && why.empty()) why = "--from starts here";
     if (flags.dry_run) {
@@ -173,7 +184,8 @@ void RunJob(const RunFlags& flags, AppState* state) {
       continue;
     }
     if (main_rank) FC_INFO("[{}/{}] {}: runs because {}", i + 1, plan.size(), label, why);
-    if ((forced || stale) && std::filesystem::exists(out)) std::filesystem::remove(out);
+    if (main_rank && (forced || stale) && std::filesystem::exists(out)) std::filesystem::remove(out);
+    state->comm.Barrier();
     StageFlags stage_flags;
     stage_flags.job = flags.job;
     stage_flags.sets = flags.sets;
