@@ -64,6 +64,12 @@ void Comm::Init(int* argc, char*** argv) {
   g_initialised_here = true;
 }
 
+void Comm::AbortWorld(int code) {
+  int size = 1;
+  if (MpiActive()) MPI_Comm_size(MPI_COMM_WORLD, &size);
+  if (size > 1) MPI_Abort(MPI_COMM_WORLD, code);
+}
+
 void Comm::Finalize() {
   int finalized = 0;
   MPI_Finalized(&finalized);
@@ -196,7 +202,14 @@ std::vector<std::vector<uint8_t>> Comm::AllGather(const std::vector<uint8_t>& mi
   return parts;
 }
 
+namespace {
+bool g_exception_coordinated = false;
+}  // namespace
+
+bool ExceptionIsCoordinated() { return g_exception_coordinated; }
+
 void CoordinateExceptions(const Comm& comm, const std::function<void()>& fn) {
+  g_exception_coordinated = false;
   std::exception_ptr error;
   std::string message;
   try {
@@ -217,6 +230,7 @@ void CoordinateExceptions(const Comm& comm, const std::function<void()>& fn) {
   if (failing >= comm.size()) return;
   const int root = static_cast<int>(failing);
   comm.Broadcast(&message, root);
+  g_exception_coordinated = true;
   if (error) std::rethrow_exception(error);
   throw ParallelConsistencyError("rank " + std::to_string(root) + " failed: " + message);
 }

@@ -19,6 +19,9 @@ class Comm {
   // Initialises MPI (MPI_THREAD_FUNNELED) when launched by mpirun/srun; idempotent.
   static void Init(int* argc, char*** argv);
   static void Finalize();
+  // Ends every rank of the world with exit code `code` (MPI_Abort) when several run: for an
+  // error that only this rank saw, so that no other rank waits for it in a collective.
+  static void AbortWorld(int code);
   static bool MpiActive();
   // True when environment variables of mpirun or srun say this process is one of several.
   static bool LaunchedByMpi();
@@ -74,6 +77,9 @@ class Comm {
 // exception, the others a ParallelConsistencyError that names the failing rank and its message.
 // fn must not enter a collective that a failing rank would skip.
 void CoordinateExceptions(const Comm& comm, const std::function<void()>& fn);
+// True when the exception in flight was thrown on every rank by CoordinateExceptions (every
+// rank is on its way out, so they can finalize together instead of aborting).
+bool ExceptionIsCoordinated();
 
 // Contiguous block of `num_items` for this rank: [begin, end).
 struct Range {

@@ -56,9 +56,13 @@ int RunApp(int argc, char** argv) {
   } catch (const Error& e) {
     FC_ERROR("{}", e.what());
     code = e.code();
+    // An error only this rank saw (rank-0-only work, say, under `facecap run`, whose other
+    // ranks wait at the barrier) ends them all. Usage errors are found on every rank alike.
+    if (!dist::ExceptionIsCoordinated() && code != kExitUsage) dist::Comm::AbortWorld(code);
   } catch (const std::exception& e) {
     FC_ERROR("internal error: {}", e.what());
     code = kExitFailure;
+    if (!dist::ExceptionIsCoordinated()) dist::Comm::AbortWorld(code);
   }
   dist::Comm::Finalize();
   return code;
