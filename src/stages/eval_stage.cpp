@@ -18,6 +18,7 @@
 #include "render/framing.h"
 #include "rig/evaluate.h"
 #include "stages/cli.h"
+#include "stages/tracked_rig.h"
 #include "stages/registry.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -265,30 +266,17 @@ void RunEvalLandmarks(const StageFlags& flags, AppState* state) {
   const rig::Rig rig = io::ReadRigFile(o.rig);
   if (rig.landmarks.size() != 68) throw FileIOError(o.rig + ": the rig has no 68 landmarks");
   io::H5File frames = io::H5File::OpenRead(o.frames);
-  io::H5File track = io::H5File::OpenRead(o.track);
-  const int64_t n = track.NumFrames("/track/weights");
+  const TrackedRig track(o.track, rig);
+  const int64_t n = track.NumFrames();
   const io::Shape crop = frames.CheckShape("/frames/crop", {-1, -1, -1, 3});
   if (crop[0] < n) throw FileIOError(o.frames + " has fewer frames than " + o.track);
   frames.CheckShape("/frames/landmarks_crop", {crop[0], 68, 2});
   std::vector<float> detected(static_cast<size_t>(crop[0]) * 68 * 2);
   frames.ReadFrames<float>("/frames/landmarks_crop", 0, crop[0], detected.data());
   const std::vector<uint8_t> found = frames.ReadVector<uint8_t>("/frames/found", crop[0]);
-  const std::vector<std::string> names = track.ReadStrings("/track/shape_names");
-  const auto weights = track.ReadMatrix<float>("/track/weights", n, static_cast<int64_t>(names.size()));
-  const auto pose = track.ReadMatrix<float>("/track/pose", n, 3);
-  const auto translation = track.ReadMatrix<float>("/track/translation", n, 3);
-  const std::vector<float> scale = track.ReadVector<float>("/track/scale", n);
-  const std::vector<double> k = track.ReadVector<double>("/camera/intrinsics", 4);
-  if (!track.HasAttribute("/camera/intrinsics", "width")) {
-    throw FileIOError(o.track + ": /camera/intrinsics has no width attribute");
-  }
+  if (!track.HasCameraWidth()) throw FileIOError(o.track + ": /camera/intrinsics has no width attribute");
   // Projected rig landmarks are in the tracked images' pixels: scale them to crop pixels.
-  const double to_crop = crop[2] / track.GetDoubleAttribute("/camera/intrinsics", "width");
-  render::Camera camera;
-  camera.fx = static_cast<float>(k[0] * to_crop);
-  camera.fy = static_cast<float>(k[1] * to_crop);
-  camera.cx = static_cast<float>(k[2] * to_crop);
-  camera.cy = static_cast<float>(k[3] * to_crop);
+  const render::Camera camera = track.CameraForWidth(static_cast<int>(crop[2]), static_cast<int>(crop[1]));
   const rig::RigEvaluator evaluator(rig);
   rig::Vertices posed;
   // [all, held out, trained on]
@@ -297,18 +285,7 @@ void RunEvalLandmarks(const StageFlags& flags, AppState* state) {
   std::vector<double> errors;
   for (int64_t f = 0; f < n; ++f) {
     if (!found[f]) continue;
-    rig::RigidPose p;
-    p.pitch = pose(f, 0);
-    p.yaw = pose(f, 1);
-    p.roll = pose(f, 2);
-    p.translation = translation.row(f).transpose();
-    p.scale = scale[f];
-    Eigen::VectorXf w = Eigen::VectorXf::Zero(rig.NumShapes());
-    for (size_t t = 0; t < names.size(); ++t) {
-      const int s = rig.ShapeIndex(names[t]);
-      if (s >= 0) w[s] = weights(f, t);
-    }
-    evaluator.EvaluatePosed(p, w, &posed);
+    evaluator.EvaluatePosed(track.Pose(f), track.Weights(f), &posed);
     auto point = [&](int l) {
       const float* p = &detected[(static_cast<size_t>(f) * 68 + l) * 2];
       return Eigen::Vector2f(p[0], p[1]);

@@ -17,6 +17,7 @@
 #include "synth/appearance.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
+#include "stages/tracked_rig.h"
 #include "util/errors.h"
 #include "util/log.h"
 
@@ -286,17 +287,8 @@ void RunExportOverlay(const StageFlags& flags, AppState* state) {
   std::string why;
   if (!o.Check(&why)) throw InvalidInputError("export overlay: " + why);
   const rig::Rig rig = io::ReadRigFile(o.rig);
-  io::H5File track = io::H5File::OpenRead(o.track);
-  const std::vector<std::string> names = track.ReadStrings("/track/shape_names");
-  const int64_t tracked = track.DatasetShape("/track/pose")[0];
-  const auto pose = track.ReadMatrix<float>("/track/pose", tracked, 3);
-  const auto translation = track.ReadMatrix<float>("/track/translation", tracked, 3);
-  const std::vector<float> scale = track.ReadVector<float>("/track/scale", tracked);
-  const auto weights =
-      track.ReadMatrix<float>("/track/weights", tracked, static_cast<int64_t>(names.size()));
-  const std::vector<double> k = track.ReadVector<double>("/camera/intrinsics", 4);
-  std::vector<int> shape_of(names.size(), -1);  // tracked column -> rig shape
-  for (size_t t = 0; t < names.size(); ++t) shape_of[t] = rig.ShapeIndex(names[t]);
+  const TrackedRig track(o.track, rig);
+  const int64_t tracked = track.NumFrames();
 
   io::H5File frames_file = io::H5File::OpenRead(o.frames);
   std::string dataset = o.frames_dataset;
@@ -317,17 +309,7 @@ void RunExportOverlay(const StageFlags& flags, AppState* state) {
   if (count < 1) throw FileIOError(o.track + ": no tracked frame to draw");
   const int H = static_cast<int>(shape[1]), W = static_cast<int>(shape[2]);
   // The tracking camera, scaled to the frames (tracking may have run on smaller targets).
-  const double track_width = track.HasAttribute("/camera/intrinsics", "width")
-                                ? track.GetDoubleAttribute("/camera/intrinsics", "width")
-                                : 2.0 * k[2];  // older files: the principal point is central
-  render::Camera camera;
-  camera.width = W;
-  camera.height = H;
-  const double s = W / track_width;
-  camera.fx = static_cast<float>(k[0] * s);
-  camera.fy = static_cast<float>(k[1] * s);
-  camera.cx = static_cast<float>(k[2] * s);
-  camera.cy = static_cast<float>(k[3] * s);
+  const render::Camera camera = track.CameraForWidth(W, H);
 
   const rig::RigEvaluator evaluator(rig);
   rig::Vertices posed;
@@ -337,26 +319,13 @@ void RunExportOverlay(const StageFlags& flags, AppState* state) {
   std::vector<Image8> video;
   video.reserve(count);
   Image8 frame(W, H, 3);
-  // Frames the tracker had no face to solve (termination 3) are shown without the rig.
-  std::vector<int32_t> termination;
-  if (track.Exists("/track/termination")) termination = track.ReadVector<int32_t>("/track/termination", tracked);
   for (int64_t f = 0; f < count; ++f) {
     frames_file.ReadFrames<uint8_t>(dataset, f, 1, frame.data.data());
-    if (!termination.empty() && termination[f] == 3) {
+    if (!track.Solved(f)) {  // no face to solve there: the frame without the rig
       video.push_back(synth::UpscaleNearest(frame, o.scale));
       continue;
     }
-    rig::RigidPose p;
-    p.pitch = pose(f, 0);
-    p.yaw = pose(f, 1);
-    p.roll = pose(f, 2);
-    p.translation = translation.row(f).transpose();
-    p.scale = scale[f];
-    Eigen::VectorXf w = Eigen::VectorXf::Zero(rig.NumShapes());
-    for (size_t t = 0; t < names.size(); ++t) {
-      if (shape_of[t] >= 0) w[shape_of[t]] = weights(f, t);
-    }
-    evaluator.EvaluatePosed(p, w, &posed);
+    evaluator.EvaluatePosed(track.Pose(f), track.Weights(f), &posed);
     render::Rasterize(posed, rig.triangles, camera, &g, raster);
     video.push_back(synth::UpscaleNearest(DrawOverlay(frame, g, rig, o.opacity), o.scale));
   }
