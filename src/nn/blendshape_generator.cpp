@@ -66,23 +66,73 @@ struct DecoderImpl : torch::nn::Module {
     output->weight.zero_();
     output->bias.zero_();
   }
-  torch::Tensor forward(const torch::Tensor& x) {
+  // The last features at full resolution (c channels), before the output convolution.
+  torch::Tensor Features(const torch::Tensor& x) {
     auto upsample = [](const torch::Tensor& t) {
       return F::interpolate(t, F::InterpolateFuncOptions().scale_factor(std::vector<double>{2, 2}).mode(torch::kNearest));
     };
     torch::Tensor y = block->forward(x);
     y = torch::relu(up1->forward(upsample(y)));
-    y = torch::relu(up2->forward(upsample(y)));
-    return output->forward(y);
+    return torch::relu(up2->forward(upsample(y)));
   }
   std::shared_ptr<ResidualBlockImpl> block{nullptr};
   torch::nn::Conv2d up1{nullptr}, up2{nullptr}, output{nullptr};
 };
 TORCH_MODULE(Decoder);
 
-// Blendshape Generator: encoder + two branches; output channels are [N * 3] in shape order.
+// Template-conditioned output head of one branch: shape i of the branch at chart vertex x gets
+//   |S_i(x)| MLP(f(x), S_i(x) / sigma, |S_i(x)| / sigma)
+// added to its offsets, f the decoder's last features and the generator's input (a skip: the
+// neutral's geometry there at full resolution) sampled at x, sigma the RMS template motion. One MLP serves all the branch's shapes, so a shape's personal motion can depend on
+// its own template motion at that point; a 1x1 output convolution alone mixes the same c
+// features into every shape with weights that do not vary over the face. The output layer
+// starts at zero (the generator still starts at the template). It runs only on the (shape,
+// vertex) pairs where the template moves (about a fifth of them); elsewhere it adds nothing.
+struct TemplateHeadImpl : torch::nn::Module {
+  // deltas: the branch's template motion S_i(x), [S, A, 3]; sigma: the RMS template motion.
+  TemplateHeadImpl(int features, int width, const torch::Tensor& deltas, double sigma)
+      : shapes(deltas.size(0)), vertices(deltas.size(1)) {
+    from_features = register_module("features", torch::nn::Linear(features, width));
+    from_motion = register_module("motion", torch::nn::Linear(torch::nn::LinearOptions(4, width).bias(false)));
+    output = register_module("output", torch::nn::Linear(width, 3));
+    torch::NoGradGuard no_grad;
+    output->weight.zero_();
+    output->bias.zero_();
+    const torch::Tensor flat = deltas.reshape({shapes * vertices, 3});
+    const torch::Tensor norm = flat.norm(2, -1);
+    pairs = torch::nonzero(norm > 0).reshape({-1});
+    pair_vertex = torch::remainder(pairs, vertices);
+    magnitude = norm.index_select(0, pairs).unsqueeze(-1).contiguous();                          // [P, 1]
+    motion = torch::cat({flat.index_select(0, pairs), magnitude}, -1).div(sigma).contiguous();  // [P, 4]
+  }
+  // features [B, A, c] -> offsets [B, S, A, 3].
+  torch::Tensor forward(const torch::Tensor& features) {
+    const torch::Tensor hidden = torch::relu(from_features->forward(features).index_select(1, pair_vertex) +
+                                             from_motion->forward(motion).unsqueeze(0));  // [B, P, width]
+    const torch::Tensor values = output->forward(hidden) * magnitude;                     // [B, P, 3]
+    const int64_t B = features.size(0);
+    return torch::zeros({B, shapes * vertices, 3}, values.options()).index_add(1, pairs, values)
+        .reshape({B, shapes, vertices, 3});
+  }
+  int64_t shapes, vertices;
+  torch::Tensor pairs, pair_vertex, magnitude, motion;  // the moving pairs s A + x, their x, |S_s(x)|, input
+  torch::nn::Linear from_features{nullptr}, from_motion{nullptr}, output{nullptr};
+};
+TORCH_MODULE(TemplateHead);
+
+struct GeneratorOutput {
+  torch::Tensor image;     // [B, 3N, H, W], channels in shape order (the 1x1 output layers)
+  torch::Tensor features;  // [B, F, H, W], the branches' last features (large, then small)
+  torch::Tensor input;     // [B, C, H, W], the generator's input
+};
+
+// Blendshape Generator: encoder + two branches, each with a 1x1 output convolution and, when
+// head_width > 0, a template-conditioned head on the features sampled at the chart vertices.
+// template_deltas: S_i on the chart vertices, [N, A, 3].
 struct GeneratorImpl : torch::nn::Module {
-  GeneratorImpl(int in, int c, int blocks, const std::vector<int>& large, int num_shapes) {
+  GeneratorImpl(int in, int c, int blocks, const std::vector<int>& large, int num_shapes, int head_width,
+                const torch::Tensor& template_deltas)
+      : channels(c) {
     encoder = register_module("encoder", Encoder(in, c, blocks));
     std::vector<uint8_t> is_large(num_shapes, 0);
     for (int i : large) is_large[i] = 1;
@@ -90,26 +140,58 @@ struct GeneratorImpl : torch::nn::Module {
     for (int i = 0; i < num_shapes; ++i) (is_large[i] ? order_large : order_small).push_back(i);
     large_branch = register_module("large", Decoder(c, 3 * static_cast<int>(order_large.size())));
     small_branch = register_module("small", Decoder(c, 3 * static_cast<int>(order_small.size())));
-    // Channel permutation from [large..., small...] back to shape order.
+    // Shape and channel permutations from [large..., small...] back to shape order.
     std::vector<int64_t> position(num_shapes);
     for (size_t k = 0; k < order_large.size(); ++k) position[order_large[k]] = static_cast<int64_t>(k);
     for (size_t k = 0; k < order_small.size(); ++k) position[order_small[k]] = static_cast<int64_t>(order_large.size() + k);
-    std::vector<int64_t> channels;
-    for (int i = 0; i < num_shapes; ++i) for (int d = 0; d < 3; ++d) channels.push_back(3 * position[i] + d);
-    permutation = torch::tensor(channels, torch::kLong);
+    std::vector<int64_t> channel_order;
+    for (int i = 0; i < num_shapes; ++i) for (int d = 0; d < 3; ++d) channel_order.push_back(3 * position[i] + d);
+    permutation = torch::tensor(channel_order, torch::kLong);
+    shape_permutation = torch::tensor(position, torch::kLong);
     has_large = !order_large.empty();
     has_small = !order_small.empty();
+    branch_shapes[0] = order_large;
+    branch_shapes[1] = order_small;
+    if (head_width > 0) {
+      const double sigma = template_deltas.square().sum(-1).mean().sqrt().item<double>() + 1e-6;
+      auto branch = [&](const std::vector<int64_t>& order, const char* name, TemplateHead* head) {
+        if (order.empty()) return;
+        const torch::Tensor deltas = template_deltas.index_select(0, torch::tensor(order, torch::kLong));
+        *head = register_module(name, TemplateHead(c + in, head_width, deltas, sigma));
+      };
+      branch(order_large, "large_head", &heads[0]);
+      branch(order_small, "small_head", &heads[1]);
+    }
   }
-  torch::Tensor forward(const torch::Tensor& x) {
+  GeneratorOutput forward(const torch::Tensor& x) {
     const torch::Tensor code = encoder->forward(x);
-    std::vector<torch::Tensor> parts;
-    if (has_large) parts.push_back(large_branch->forward(code));
-    if (has_small) parts.push_back(small_branch->forward(code));
-    return torch::cat(parts, 1).index_select(1, permutation);
+    std::vector<torch::Tensor> images, features;
+    for (Decoder* d : {has_large ? &large_branch : nullptr, has_small ? &small_branch : nullptr}) {
+      if (!d) continue;
+      features.push_back((*d)->Features(code));
+      images.push_back((*d)->output->forward(features.back()));
+    }
+    return {torch::cat(images, 1).index_select(1, permutation), torch::cat(features, 1), x};
   }
+  bool HasHeads() const { return !heads[0].is_empty() || !heads[1].is_empty(); }
+  // The heads' offsets [B, N, A, 3] (shape order) from the features [B, F, A] and the input
+  // [B, C, A] sampled at the chart vertices.
+  torch::Tensor HeadOffsets(const torch::Tensor& sampled, const torch::Tensor& sampled_input) {
+    std::vector<torch::Tensor> parts;
+    int64_t first = 0;
+    for (TemplateHead& head : heads) {
+      if (head.is_empty()) continue;
+      parts.push_back(head->forward(torch::cat({sampled.narrow(1, first, channels), sampled_input}, 1).transpose(1, 2)));
+      first += channels;
+    }
+    return torch::cat(parts, 1).index_select(1, shape_permutation);
+  }
+  int channels;
   Encoder encoder{nullptr};
   Decoder large_branch{nullptr}, small_branch{nullptr};
-  torch::Tensor permutation;
+  TemplateHead heads[2] = {TemplateHead{nullptr}, TemplateHead{nullptr}};  // large, small
+  std::vector<int64_t> branch_shapes[2];  // the shapes of the large and the small branch
+  torch::Tensor permutation, shape_permutation;
   bool has_large = false, has_small = false;
 };
 TORCH_MODULE(Generator);
@@ -153,8 +235,8 @@ TORCH_MODULE(WeightPredictor);
 //   the chart vertices are all linear, so they fold into one matrix applied to the sampled
 //   last decoder features: offsets = M [S f; S 1] (S: the sampling stencil, 1: a channel of
 //   ones carrying the biases). Nothing at H x W with 3N channels is ever formed.
-// - The Tuning input offsets_in(Estimation image) (a 1x1 convolution of that image) folds the
-//   same way into a 1x1 convolution of the Estimation decoder features.
+// - The heads run on the same samples of the features (FastHeads: their motion term
+//   precomputed per moving pair, plain loops over the pairs).
 // Results equal the modules' forward up to float rounding (the order of the sums differs).
 
 bool UseOneDnn() { return at::hasMKLDNN() && at::globalContext().userEnabledMkldnn(); }
@@ -323,11 +405,81 @@ MatrixXdRow OutputMatrix(const FastGenerator& g, const torch::Tensor& permutatio
   return out;
 }
 
+// The inference form of a generator's heads (TemplateHeadImpl::forward on one image): the
+// hidden layer's motion term is fixed for given parameters and precomputed per moving pair;
+// the feature term is computed once per chart vertex; the rest runs in plain loops over the
+// pairs, adding into the offsets.
+struct FastHeads {
+  using RowMajor = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  struct Head {
+    Eigen::MatrixXf from_features;  // [width, c + C]
+    Eigen::VectorXf bias;           // [width]
+    Eigen::MatrixXf motion;         // [width, P]: the motion term of each pair
+    Eigen::MatrixXf output;         // [3, width]
+    Eigen::Vector3f output_bias;
+    std::vector<int64_t> vertex, shape;  // per pair: chart vertex, shape (shape order)
+    std::vector<float> magnitude;        // per pair: |S_i(x)|
+    int64_t first_feature = 0;           // the branch's first row among the sampled features
+  };
+  std::vector<Head> heads;
+  int64_t channels = 0;
+
+  explicit FastHeads(const GeneratorImpl& g) : channels(g.channels) {
+    auto matrix = [](const torch::Tensor& t) {
+      const torch::Tensor c = t.detach().contiguous();
+      return Eigen::MatrixXf(Eigen::Map<const RowMajor>(c.data_ptr<float>(), c.size(0), c.size(1)));
+    };
+    int64_t first = 0;
+    for (int b = 0; b < 2; ++b) {
+      if (g.heads[b].is_empty()) continue;
+      const TemplateHeadImpl& t = *g.heads[b];
+      Head h;
+      h.from_features = matrix(t.from_features->weight);
+      h.bias = matrix(t.from_features->bias.unsqueeze(1));
+      h.motion = matrix(torch::matmul(t.motion, t.from_motion->weight.detach().t()).t());
+      h.output = matrix(t.output->weight);
+      h.output_bias = matrix(t.output->bias.unsqueeze(1));
+      const int64_t P = t.pairs.size(0);
+      const int64_t* pairs = t.pairs.data_ptr<int64_t>();
+      for (int64_t p = 0; p < P; ++p) {
+        h.vertex.push_back(pairs[p] % t.vertices);
+        h.shape.push_back(g.branch_shapes[b][pairs[p] / t.vertices]);
+        h.magnitude.push_back(t.magnitude.data_ptr<float>()[p]);
+      }
+      h.first_feature = first;
+      first += g.channels;
+      heads.push_back(std::move(h));
+    }
+  }
+  // features: the generator's sampled features [F, A]; input: its sampled input [C, A] (both
+  // row-major); adds the heads' offsets to out, [N, A, 3].
+  void Add(const float* features, const float* input, int64_t input_channels, int64_t A, float* out) const {
+    for (const Head& h : heads) {
+      RowMajor x(channels + input_channels, A);
+      x.topRows(channels) = Eigen::Map<const RowMajor>(features + h.first_feature * A, channels, A);
+      x.bottomRows(input_channels) = Eigen::Map<const RowMajor>(input, input_channels, A);
+      const Eigen::MatrixXf per_vertex = (h.from_features * x).colwise() + h.bias;  // [width, A]
+      Eigen::VectorXf hidden(per_vertex.rows());
+      Eigen::Vector3f o;
+      for (size_t p = 0; p < h.vertex.size(); ++p) {
+        hidden = (per_vertex.col(h.vertex[p]) + h.motion.col(p)).cwiseMax(0.f);
+        o.noalias() = h.output * hidden;
+        o = (o + h.output_bias) * h.magnitude[p];
+        float* y = out + (h.shape[p] * A + h.vertex[p]) * 3;
+        y[0] += o[0];
+        y[1] += o[1];
+        y[2] += o[2];
+      }
+    }
+  }
+};
+
 }  // namespace
 
 bool BlendshapeNetOptions::Check(std::string* why) const {
   if (channels < 2 || channels > 128) { *why = "channels must be in [2, 128]"; return false; }
   if (residual_blocks < 0 || residual_blocks > 8) { *why = "residual_blocks must be in [0, 8]"; return false; }
+  if (head_width < 0 || head_width > 256) { *why = "head_width must be in [0, 256]"; return false; }
   if (!(learning_rate > 0.f && learning_rate < 1.f)) { *why = "learning_rate must be in (0, 1)"; return false; }
   if (!(reg_weight >= 0.f)) { *why = "reg_weight must be >= 0"; return false; }
   if (!(tuning_reg_weight >= 0.f)) { *why = "tuning_reg_weight must be >= 0"; return false; }
@@ -343,7 +495,7 @@ struct BlendshapeGenerator::Impl {
   std::shared_ptr<const BlendshapeNetGeometry> geometry;
   Generator generator{nullptr};        // Estimation Stage
   Generator tuning{nullptr};           // Tuning Stage generator (skip connection on its output)
-  torch::nn::Conv2d offsets_in{nullptr};  // initial offsets image -> c channels (tuning input)
+  torch::nn::Conv2d offsets_in{nullptr};  // Estimation decoder features -> c channels (tuning input)
   WeightPredictor predictor{nullptr};
   std::vector<torch::Tensor> parameters;
   int64_t estimation_end = 0;          // parameters [0, estimation_end) are the generator's
@@ -360,27 +512,36 @@ struct BlendshapeGenerator::Impl {
     if (geometry->num_static_channels == 0) return images;
     return torch::cat({images, static_channels.expand({images.size(0), -1, -1, -1})}, 1);
   }
-  // [B, N*3, H, W] image -> [B, N, A, 3] per chart vertex (bilinear).
-  torch::Tensor Sample(const torch::Tensor& image) const {
+  // [B, C, H, W] -> [B, C, A]: bilinear samples at the chart vertices.
+  torch::Tensor SampleChannels(const torch::Tensor& image) const {
     const int64_t B = image.size(0), C = image.size(1);
     torch::Tensor flat = image.reshape({B, C, H() * H()}).index_select(2, sample_pixels);
-    torch::Tensor values = (flat.reshape({B, C, A(), 4}) * sample_weights).sum(-1);
-    return values.reshape({B, N(), 3, A()}).permute({0, 1, 3, 2});
+    return (flat.reshape({B, C, A(), 4}) * sample_weights).sum(-1);
   }
-  torch::Tensor TuningResidual(const torch::Tensor& input, const torch::Tensor& initial_image) {
-    return tuning->forward(torch::cat({input, torch::relu(offsets_in->forward(initial_image))}, 1));
+  // A generator's offsets Delta S_i at the chart vertices, [B, N, A, 3]: its output image
+  // sampled, plus its heads' offsets.
+  torch::Tensor Offsets(Generator& g, const GeneratorOutput& out) {
+    const torch::Tensor linear = SampleChannels(out.image).reshape({out.image.size(0), N(), 3, A()}).permute({0, 1, 3, 2});
+    if (!g->HasHeads()) return linear;
+    return linear + g->HeadOffsets(SampleChannels(out.features), SampleChannels(out.input));
+  }
+  // The Tuning generator sees the neutral and the initial blendshapes through the Estimation
+  // decoders' last features (the offsets are computed from them), compressed to c channels.
+  GeneratorOutput TuningForward(const torch::Tensor& input, const GeneratorOutput& estimation) {
+    return tuning->forward(torch::cat({input, torch::relu(offsets_in->forward(estimation.features))}, 1));
   }
 
   // The inference form (see FastGenerator), built from the parameters on first use and dropped
   // whenever they change (a caller still running on the old one keeps it alive).
   struct Inference {
     std::unique_ptr<FastGenerator> generator, tuning;
-    FastConv offsets_in;      // offsets_in of the Estimation image, on the Estimation features
+    FastConv offsets_in;      // offsets_in on the Estimation features
     int64_t generator_features = 0, tuning_features = 0;
     // Output layers on the sampled [generator features; 1] (Estimation only) and on
     // [generator features; 1; tuning features; 1] (tuned), as 1x1 convolution weights
     // [3N, rows, 1, 1] applied to the samples laid out as a [1, rows, 1, A] image.
     FastConv output, output_tuned;
+    std::unique_ptr<FastHeads> generator_heads, tuning_heads;
     bool onednn = false;      // convolutions in oneDNN (else plain libtorch)
   };
   std::shared_ptr<const Inference> inference;
@@ -399,18 +560,7 @@ struct BlendshapeGenerator::Impl {
     const int64_t fg = mg.cols() - 1, ft = mt.cols() - 1, outputs = mg.rows();
     f->generator_features = fg;
     f->tuning_features = ft;
-    // offsets_in(image) = W_in image + b_in with image = mg [features; 1].
-    const torch::Tensor w_in = offsets_in->weight.detach().to(torch::kFloat64).reshape({offsets_in->weight.size(0), -1}).contiguous();
-    const torch::Tensor b_in = offsets_in->bias.detach().to(torch::kFloat64).contiguous();
-    const Eigen::Map<const MatrixXdRow> win(w_in.data_ptr<double>(), w_in.size(0), w_in.size(1));
-    const MatrixXdRow folded = win * mg;  // [c, fg + 1]
-    torch::Tensor w = torch::empty({folded.rows(), fg, 1, 1}, torch::kFloat32);
-    torch::Tensor b = torch::empty({folded.rows()}, torch::kFloat32);
-    for (int64_t o = 0; o < folded.rows(); ++o) {
-      for (int64_t i = 0; i < fg; ++i) w.data_ptr<float>()[o * fg + i] = static_cast<float>(folded(o, i));
-      b.data_ptr<float>()[o] = static_cast<float>(folded(o, fg) + b_in.data_ptr<double>()[o]);
-    }
-    f->offsets_in = FastConv(w, b, 0, 1, f->onednn);
+    f->offsets_in = FastConv(offsets_in, f->onednn);
     MatrixXdRow both(outputs, fg + 1 + ft + 1);
     both << mg, mt;
     auto as_conv = [&](const MatrixXdRow& m) {
@@ -420,6 +570,8 @@ struct BlendshapeGenerator::Impl {
     };
     f->output = as_conv(mg);
     f->output_tuned = as_conv(both);
+    f->generator_heads = std::make_unique<FastHeads>(*generator);
+    f->tuning_heads = std::make_unique<FastHeads>(*tuning);
     inference = std::move(f);
     return inference;
   }
@@ -448,9 +600,15 @@ BlendshapeGenerator::BlendshapeGenerator(const BlendshapeNetOptions& options,
   m.geometry = geometry;
   torch::manual_seed(static_cast<uint64_t>(options.seed));
   const int c = options.channels, in = 3 + g.num_static_channels;
-  m.generator = Generator(in, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes);
-  m.tuning = Generator(in + c, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes);
-  m.offsets_in = Conv(3 * g.num_shapes, c, 1);
+  auto f32 = torch::TensorOptions().dtype(torch::kFloat32);
+  m.template_deltas = torch::from_blob(const_cast<float*>(g.template_deltas.data()),
+                                       {g.num_shapes, g.num_chart_vertices, 3}, f32).clone();
+  m.generator = Generator(in, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes, options.head_width,
+                          m.template_deltas);
+  m.tuning = Generator(in + c, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes, options.head_width,
+                       m.template_deltas);
+  const int branches = (m.generator->has_large ? 1 : 0) + (m.generator->has_small ? 1 : 0);
+  m.offsets_in = Conv(branches * c, c, 1);
   m.predictor = WeightPredictor(in, c, g.num_shapes);
   for (auto& p : m.generator->parameters()) m.parameters.push_back(p);
   m.estimation_end = static_cast<int64_t>(m.parameters.size());
@@ -461,9 +619,6 @@ BlendshapeGenerator::BlendshapeGenerator(const BlendshapeNetOptions& options,
   m.gradient.assign(m.num_parameters, 0.f);
   m.adam_m.assign(m.num_parameters, 0.f);
   m.adam_v.assign(m.num_parameters, 0.f);
-  auto f32 = torch::TensorOptions().dtype(torch::kFloat32);
-  m.template_deltas = torch::from_blob(const_cast<float*>(g.template_deltas.data()),
-                                       {g.num_shapes, g.num_chart_vertices, 3}, f32).clone();
   m.reg_weights = torch::from_blob(const_cast<float*>(g.reg_weights.data()),
                                    {g.num_shapes, g.num_chart_vertices}, f32).clone();
   std::vector<int64_t> pixels(g.sample_pixels.begin(), g.sample_pixels.end());
@@ -510,18 +665,20 @@ double BlendshapeGenerator::Backward(const std::vector<const BlendshapePerson*>&
 
   torch::Tensor offsets, weights, regularization;
   if (stage == TrainingStage::kEstimation) {
-    offsets = m.Sample(m.generator->forward(input));                      // Delta S_i, [B,N,A,3]
+    offsets = m.Offsets(m.generator, m.generator->forward(input));        // Delta S_i, [B,N,A,3]
     weights = alpha;
     // L_reg (eq. 4): sum_i g_i m_i(x) |Delta S_i(x)|_1, as a mean over shapes and vertices.
     regularization = (m.reg_weights * offsets.abs().sum(-1)).mean({1, 2});
   } else {
-    torch::Tensor initial_image;
+    GeneratorOutput estimation;
+    torch::Tensor initial;
     {
       torch::NoGradGuard no_grad;
-      initial_image = m.generator->forward(input);
+      estimation = m.generator->forward(input);
+      initial = m.Offsets(m.generator, estimation);
     }
-    const torch::Tensor residual = m.Sample(m.TuningResidual(input, initial_image));  // skip
-    offsets = m.Sample(initial_image) + residual;                          // Delta S_i_FT
+    const torch::Tensor residual = m.Offsets(m.tuning, m.TuningForward(input, estimation));
+    offsets = initial + residual;                                          // Delta S_i_FT (skip)
     const torch::Tensor images =
         m.WithStatic(torch::from_blob(expression_images.data(), {B * K, 3, H, H}, f32));
     weights = m.predictor->forward(images, alpha.reshape({B * K, N})).reshape({B, K, N});
@@ -638,11 +795,12 @@ std::vector<float> BlendshapeGenerator::PredictOffsets(const std::vector<float>&
   const torch::Tensor input = m.WithStatic(torch::from_blob(const_cast<float*>(neutral_image.data()),
                                                             {1, 3, H, H}, torch::kFloat32));
   const torch::Tensor generator_features = f.generator->Features(input);
-  torch::Tensor tuning_features;
+  torch::Tensor tuning_features, tuning_input;
   if (tuned) {
     torch::Tensor initial = ToDense(f.offsets_in(ToNet(generator_features, f.onednn))).contiguous();
     ReluInPlace(initial);
-    tuning_features = f.tuning->Features(torch::cat({input, initial}, 1));
+    tuning_input = torch::cat({input, initial}, 1);
+    tuning_features = f.tuning->Features(tuning_input);
   }
   // Bilinear samples of the features at the chart vertices as a [1, rows, 1, A] image, with a
   // row of the stencil weights' sums after each generator's features (the biases' channel).
@@ -681,6 +839,16 @@ std::vector<float> BlendshapeGenerator::PredictOffsets(const std::vector<float>&
       for (int64_t k = 0; k < A; ++k) o[3 * k] = channel[k];
     }
   }
+  // The heads, on the same samples of the features.
+  if (!f.generator_heads->heads.empty()) {
+    const torch::Tensor samples = m.SampleChannels(input).contiguous();
+    f.generator_heads->Add(sampled.data_ptr<float>(), samples.data_ptr<float>(), samples.size(1), A, out.data());
+  }
+  if (tuned && !f.tuning_heads->heads.empty()) {
+    const torch::Tensor samples = m.SampleChannels(tuning_input).contiguous();
+    f.tuning_heads->Add(sampled.data_ptr<float>() + (fg + 1) * A, samples.data_ptr<float>(), samples.size(1), A,
+                        out.data());
+  }
   return out;
 }
 
@@ -699,9 +867,10 @@ std::vector<float> BlendshapeGenerator::PredictOffsetsWithModules(const std::vec
   }
   const torch::Tensor input = m.WithStatic(torch::from_blob(const_cast<float*>(neutral_image.data()),
                                                             {1, 3, H, H}, torch::kFloat32));
-  torch::Tensor image = m.generator->forward(input);
-  if (tuned) image = image + m.TuningResidual(input, image);
-  const torch::Tensor offsets = m.Sample(image).contiguous();
+  const GeneratorOutput estimation = m.generator->forward(input);
+  torch::Tensor offsets = m.Offsets(m.generator, estimation);
+  if (tuned) offsets = offsets + m.Offsets(m.tuning, m.TuningForward(input, estimation));
+  offsets = offsets.contiguous();
   return std::vector<float>(offsets.data_ptr<float>(), offsets.data_ptr<float>() + offsets.numel());
 }
 

@@ -1,7 +1,9 @@
 // Blendshape generation from one neutral scan (paper 001 Sec. 4): the Blendshape Generator
 // (a CNN encoder-decoder on the neutral's geometry image with two decoder branches, for the
-// large-motion and the small-motion shapes) and, for the Tuning Stage, a second generator fed
-// the initial offsets with a skip connection plus the Blending Weight Predictor.
+// large-motion and the small-motion shapes, each ending in a 1x1 output convolution plus a
+// head that conditions a shape's offsets on its template motion at each vertex) and, for the
+// Tuning Stage, a second generator fed the initial blendshapes (as the Estimation decoders'
+// features) with a skip connection, plus the Blending Weight Predictor.
 //
 // Torch stays in blendshape_generator.cpp; this header takes plain arrays. Training follows
 // facecap's data-parallel pattern: each rank calls Backward on its share of the batch, the
@@ -23,6 +25,7 @@ namespace facecap::nn {
 struct BlendshapeNetOptions {
   int channels = 12;              // feature channels of the first generator layer (x2, x4 deeper)
   int residual_blocks = 2;        // encoder residual blocks at 1/4 resolution
+  int head_width = 32;            // hidden units of the template-conditioned heads (0: none)
   float learning_rate = 2e-3f;    // Adam step size
   float reg_weight = 1.f;         // omega_reg of L_G = L_rec + omega_reg L_reg (eq. 7)
   float tuning_reg_weight = 0.1f; // omega_reg_FT of L_G_FT (eq. 9)
@@ -32,6 +35,7 @@ struct BlendshapeNetOptions {
   void Visit(V&& v) {
     v("channels", channels, "feature channels of the first generator layer (doubled twice deeper)");
     v("residual_blocks", residual_blocks, "encoder residual blocks at quarter resolution");
+    v("head_width", head_width, "hidden units of the output head that conditions each shape's offsets on its template motion (0: 1x1 output convolutions only)");
     v("learning_rate", learning_rate, "Adam step size");
     v("reg_weight", reg_weight, "omega_reg: weight of L_reg in the Estimation Stage (eq. 7)");
     v("tuning_reg_weight", tuning_reg_weight, "omega_reg_FT: weight of L_reg_FT in the Tuning Stage (eq. 9)");

@@ -7,6 +7,7 @@
 // expression_scale), /checkpoint/state while training (parameters, Adam moments, steps).
 // baselines.h5: /baselines/template/deltas and /baselines/example_based/deltas [P, N, V, 3].
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -377,6 +378,7 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
     f.SetAttribute("/model/parameters", "image_size", static_cast<int64_t>(o.image_size));
     f.SetAttribute("/model/parameters", "channels", static_cast<int64_t>(o.net.channels));
     f.SetAttribute("/model/parameters", "residual_blocks", static_cast<int64_t>(o.net.residual_blocks));
+    f.SetAttribute("/model/parameters", "head_width", static_cast<int64_t>(o.net.head_width));
     f.SetAttribute("/model/parameters", "input_scale", static_cast<double>(input_scale));
     f.SetAttribute("/model/parameters", "expression_scale", static_cast<double>(expression_scale));
     f.SetAttribute("/model/parameters", "train_seconds", seconds);
@@ -396,9 +398,10 @@ struct LoadedModel {
   float input_scale = 1.f;
 
   // The personalized shapes (3V x N) for one neutral (3V).
-  Eigen::MatrixXf Personalize(const Eigen::VectorXf& neutral) const {
+  // tuned: Estimation and Tuning Stage (the final shapes); else the Estimation Stage alone.
+  Eigen::MatrixXf Personalize(const Eigen::VectorXf& neutral, bool tuned = true) const {
     const auto image = DisplacementImage(setup, neutral, setup.template_image, input_scale);
-    return ShapesFromOffsets(tmpl, setup.layout->chart_vertices(), model->PredictOffsets(image, true));
+    return ShapesFromOffsets(tmpl, setup.layout->chart_vertices(), model->PredictOffsets(image, tuned));
   }
 };
 
@@ -411,6 +414,10 @@ LoadedModel LoadModel(const std::string& path) {
   nn::BlendshapeNetOptions no;
   no.channels = static_cast<int>(f.GetIntAttribute("/model/parameters", "channels"));
   no.residual_blocks = static_cast<int>(f.GetIntAttribute("/model/parameters", "residual_blocks"));
+  if (!f.HasAttribute("/model/parameters", "head_width")) {
+    throw FileIOError(path + ": a model from before the template-conditioned heads (no head_width attribute); train it again");
+  }
+  no.head_width = static_cast<int>(f.GetIntAttribute("/model/parameters", "head_width"));
   m.input_scale = static_cast<float>(f.GetDoubleAttribute("/model/parameters", "input_scale"));
   m.setup = MakeNetSetup(m.topology, m.tmpl, size);
   m.model = std::make_unique<nn::BlendshapeGenerator>(no, m.setup.geometry);
@@ -647,16 +654,17 @@ void RunEvalBlendshapes(const StageFlags& flags, AppState* state) {
     }
     // Methods: the template, example-based rigging, ours, and the true personal shapes (the
     // floor that capture noise and unwanted motion leave; synthetic databases only).
-    const int M = has_truth ? 4 : 3;
-    const char* methods[4] = {"template", "example_based", "ours", "truth"};
+    // (ours_estimation: the Estimation Stage's shapes alone, the ablation of paper 001 Fig. 6.)
+    const int M = has_truth ? 5 : 4;
+    const char* methods[5] = {"template", "example_based", "ours", "ours_estimation", "truth"};
     // [method][split] sums of per-scan errors (mm): all expressions (paper 001 Table 2) and the
     // held-out expressions; shape distances to the truth.
-    double error[4][2] = {}, unseen_error[4][2] = {}, truth_distance[4][2] = {};
+    double error[5][2] = {}, unseen_error[5][2] = {}, truth_distance[5][2] = {};
     int scans_count[2] = {0, 0}, unseen_count[2] = {0, 0}, people_count[2] = {0, 0};
     double inference_ms = 0;
     for (int j = 0; j < P; ++j) {
       const int s = data.split[j];
-      Eigen::MatrixXf shapes[4], holdout;
+      Eigen::MatrixXf shapes[5], holdout;
       for (int t = 0; t < 2; ++t) {
         shapes[t].resize(3 * V, N);
         bf.ReadFrames<float>(t == 0 ? "/baselines/template/deltas" : "/baselines/example_based/deltas", j, 1, shapes[t].data());
@@ -664,7 +672,8 @@ void RunEvalBlendshapes(const StageFlags& flags, AppState* state) {
       const auto started = std::chrono::steady_clock::now();
       shapes[2] = m.Personalize(data.neutral[j]);
       inference_ms += 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-      if (has_truth) shapes[3] = data.truth[j];
+      shapes[3] = m.Personalize(data.neutral[j], false);
+      if (has_truth) shapes[4] = data.truth[j];
       Eigen::MatrixXf unseen_expressions(data.expressions[j].rows(), static_cast<int>(unseen.size()));
       for (size_t i = 0; i < unseen.size(); ++i) unseen_expressions.col(i) = data.expressions[j].col(unseen[i]);
       if (!unseen.empty()) {
@@ -693,7 +702,7 @@ void RunEvalBlendshapes(const StageFlags& flags, AppState* state) {
       json += buffer;
     }
     if (has_truth) {
-      for (int t = 0; t < 3; ++t) {
+      for (int t = 0; t < 4; ++t) {
         std::snprintf(buffer, sizeof(buffer), ", \"%s_vs_truth_train\": %.4f, \"%s_vs_truth_test\": %.4f", methods[t],
                       mean(truth_distance[t][0], people_count[0]), methods[t], mean(truth_distance[t][1], people_count[1]));
         json += buffer;
@@ -714,8 +723,9 @@ void RunEvalBlendshapes(const StageFlags& flags, AppState* state) {
                   "\"test_people\": %d, \"train_scans\": %d, \"test_scans\": %d}",
                   mean(inference_ms, P), people_count[0], people_count[1], scans_count[0], scans_count[1]);
     json += buffer;
-    const char* labels[4] = {"Template blendshapes (deformation transfer)", "Example-based rigging [Li et al. 2010]",
-                             "Ours (generator + tuning)", "True personal shapes (floor)"};
+    const char* labels[5] = {"Template blendshapes (deformation transfer)", "Example-based rigging [Li et al. 2010]",
+                             "Ours (generator + tuning)", "Ours, Estimation Stage alone (ablation)",
+                             "True personal shapes (floor)"};
     std::string table = "| Method | Training (mm) | Testing (mm) | vs truth, testing (mm) |";
     if (!unseen.empty()) table += " Unseen expressions, testing (mm) |";
     table += "\n| --- | --- | --- | --- |";

@@ -67,7 +67,7 @@ TEST_F(Blendshapes, BaselinesEvalAndInferenceProduceTheTableAndARig) {
   auto e = RunFacecap("eval blendshapes --scans " + Scans() + " --baselines " + baselines + " --model " + model + " --json");
   ASSERT_EQ(e.code, 0) << e.output;
   for (const char* key : {"\"template_train\"", "\"template_test\"", "\"example_based_train\"", "\"example_based_test\"",
-                          "\"ours_train\"", "\"ours_test\"", "\"ours_vs_truth_test\"", "\"truth_test\"",
+                          "\"ours_train\"", "\"ours_test\"", "\"ours_vs_truth_test\"", "\"ours_estimation_test\"", "\"truth_test\"",
                           "\"unseen_expressions\""}) {
     EXPECT_NE(e.output.find(key), std::string::npos) << key << "\n" << e.output;
   }
