@@ -9,6 +9,8 @@
 #
 # Environment: MINUTES (training budget, default 20), RANKS (default 2), SIZE (default 64),
 # SAMPLES (A, default 2000), CLIP_FRAMES (B, default 600), HELDOUT_FRAMES (default 120),
+# PAIRED_FRAMES (a wild clip of a third person used as paired A examples, `deepfake train
+# --paired`; default 0: none),
 # EXTRA (more `deepfake train` flags). The training budget is turned into a step count by a
 # short timed run that the long run then continues.
 set -euo pipefail
@@ -38,8 +40,16 @@ echo "# deepfake IoU benchmark: ${size}x${size}, ${ranks} ranks x ${OMP_NUM_THRE
   --identity-seed 23 --motion-seed 5 --lighting-seed 5 --background-seed 5 --camera-seed 5 \
   --out clip_heldout.h5 >/dev/null 2>&1
 
+paired=()
+if [[ "${PAIRED_FRAMES:-0}" -gt 0 ]]; then
+  # Paired A examples: wild frames of yet other people with their true segmentation.
+  "${mpi[@]}" "${facecap}" synth clip --rig rig.h5 --frames "${PAIRED_FRAMES}" --size "${size}" \
+    --identity-seed 11 --motion-seed 3 --lighting-seed 3 --background-seed 3 --camera-seed 3 \
+    --out clip_paired.h5 >/dev/null 2>&1
+  paired=(--paired clip_paired.h5)
+fi
 train=("${facecap}" deepfake train --a samples.h5 --b clip_train.h5 --size "${size}"
-       --checkpoint-every 500 --preview-every 500 --out deepfake.h5 ${EXTRA:-})
+       --checkpoint-every 500 --preview-every 500 --out deepfake.h5 "${paired[@]}" ${EXTRA:-})
 # A short timed run gives the rate; the long run continues it up to the budget.
 "${mpi[@]}" "${train[@]}" --steps 20 --progress-seconds 1 2>&1 | tee timing.log | tail -n 2
 rate="$(grep -o '[0-9.]* steps/s' timing.log | tail -n 1 | cut -d' ' -f1)"

@@ -55,6 +55,9 @@ struct DeepfakeTrainOptions {
   std::string b_dataset = "";                    // image dataset of B ("": first found of
                                                  // /frames/image, /frames/crop, /samples/segmentation)
   int b_holdout_every = 0;                       // B frames i % n == n - 1 are not trained on
+  std::string paired = "";                       // wild clips of other people (synth clip) as
+                                                 // paired A examples ("": none)
+  double paired_fraction = 0.5;                  // share of A examples drawn from `paired`
   std::string out = "deepfake.h5";               // model file
   int steps = 2000;                              // training steps (global batches)
   int batch = 16;                                // global batch: images of A and of B per step
@@ -79,6 +82,11 @@ struct DeepfakeTrainOptions {
       "image dataset of B (empty: the first of /frames/image, /frames/crop, /samples/segmentation)");
     v("b_holdout_every", b_holdout_every,
       "keep every n-th frame of B (i % n == n - 1) out of training, for evaluation (0: none)");
+    v("paired", paired,
+      "wild clip of other people (synth clip) whose frames, with their true segmentation as the "
+      "target, serve as paired domain-A examples: E and D_A also learn the translation from "
+      "camera-like images (empty: none, the unpaired setting)");
+    v("paired_fraction", paired_fraction, "share of the domain-A examples drawn from the paired clip");
     v("out", out, "model file (HDF5); OUT.checkpoint holds the checkpoint while training");
     v("steps", steps, "training steps; a finished model is trained further when this grows");
     v("batch", batch, "global batch (images of A and of B per step), shared among the ranks");
@@ -97,6 +105,7 @@ struct DeepfakeTrainOptions {
   bool Check(std::string* why) const {
     if (steps < 0) { *why = "steps must be >= 0"; return false; }
     if (b_holdout_every < 0 || b_holdout_every == 1) { *why = "b_holdout_every must be 0 or >= 2"; return false; }
+    if (!(paired_fraction >= 0 && paired_fraction <= 1)) { *why = "paired_fraction must be in [0, 1]"; return false; }
     if (batch < 1) { *why = "batch must be positive"; return false; }
     if (checkpoint_every < 0 || preview_every < 0) {
       *why = "checkpoint_every and preview_every must be >= 0";
@@ -389,13 +398,20 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
   const io::Provenance provenance = MakeProvenance(ctx, "deepfake train", resolved);
 
   // Data: each rank its own block of A and B.
-  ImageShard shard_a, shard_b;
+  ImageShard shard_a, shard_b, paired_image, paired_target;
   Regions regions;
   std::unique_ptr<nn::DeepfakeModel> model;
   std::unique_ptr<nn::DeepfakeTrainer> trainer;
   dist::CoordinateExceptions(comm, [&] {
     shard_a = ReadShard(o.a, o.a_dataset, comm);
     shard_b = ReadShard(o.b, o.b_dataset, comm, o.b_holdout_every);
+    if (!o.paired.empty()) {
+      paired_image = ReadShard(o.paired, "/frames/image", comm);
+      paired_target = ReadShard(o.paired, "/frames/segmentation", comm);
+      if (paired_image.size != paired_target.size || paired_image.total != paired_target.total) {
+        throw FileIOError(o.paired + ": /frames/image and /frames/segmentation differ in size or count");
+      }
+    }
     regions = ReadRegions(io::H5File::OpenRead(o.a));
     if (o.augment.randomize_a > 0 && regions.names.empty()) {
       throw FileIOError(o.a + ": randomize_a needs the region names and colours (/regions) of "
@@ -409,6 +425,10 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
             "{} ranks x {} threads, global batch {}",
             shard_a.total, shard_a.size, shard_b.total, shard_b.size, size,
             model->num_parameters(), comm.size(), threads, o.batch);
+    if (!o.paired.empty()) {
+      FC_INFO("deepfake train: paired A examples: {} frames of {} with their segmentation, {:.0f}% of A",
+              paired_target.total, o.paired, 100.0 * o.paired_fraction);
+    }
   }
 
   // Continue from the checkpoint, or from a finished model trained for fewer steps.
@@ -504,11 +524,18 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
     for (int i = 0; i < local_batch; ++i) {
       const int64_t ia = rng.UniformInt(shard_a.count()), ib = rng.UniformInt(shard_b.count());
       const uint8_t* input_a = nullptr;
-      if (o.augment.randomize_a > 0 && rng.Uniform() < o.augment.randomize_a) {
+      const ImageShard* target_a = &shard_a;
+      int64_t index_a = ia;
+      if (!o.paired.empty() && rng.Uniform() < o.paired_fraction) {
+        // A paired example: a camera-like frame of another person, its true segmentation.
+        index_a = rng.UniformInt(paired_target.count());
+        target_a = &paired_target;
+        input_a = paired_image.image(index_a);
+      } else if (o.augment.randomize_a > 0 && rng.Uniform() < o.augment.randomize_a) {
         nn::RepaintSegmentation(shard_a.image(ia), shard_a.size, palette, &rng, repainted.data());
         input_a = repainted.data();
       }
-      nn::AugmentPair(shard_a.image(ia), shard_a.size, size, o.augment, false, &rng,
+      nn::AugmentPair(target_a->image(index_a), target_a->size, size, o.augment, false, &rng,
                       &batch.input_a[i * image_floats], &batch.target_a[i * image_floats],
                       input_a);
       nn::AugmentPair(shard_b.image(ib), shard_b.size, size, o.augment, true, &rng,

@@ -2,6 +2,7 @@
 // a stopped or killed run continued to the bitwise result of the straight run, checkpoints
 // that do not fit are refused with a clear message, and inference independent of the ranks.
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <vector>
 
@@ -182,6 +183,32 @@ TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
   EXPECT_EQ(f1.Read<int32_t>("/contours/borders", {}), f2.Read<int32_t>("/contours/borders", {}));
   EXPECT_TRUE(std::filesystem::exists(File("one_contours.png")));
   EXPECT_EQ(f1.ReadStrings("/regions/names").front(), "skin");
+}
+
+// Paired examples (--paired: camera-like frames with their true segmentation) teach E and D_A
+// the translation itself: after the same steps, D_A(E(I)) of such frames is nearer their
+// segmentation than after unpaired training. A paired file without the segmentation is named.
+TEST_F(DeepfakeStage, PairedExamplesTeachTheTranslation) {
+  auto error = [&](const std::string& extra) {
+    const std::string model = File("paired_model" + std::to_string(extra.size()) + ".h5");
+    const std::string out = File("paired_translated" + std::to_string(extra.size()) + ".h5");
+    auto t = RunFacecap(Train(model, 150) + extra, 0, kEnv);
+    EXPECT_EQ(t.code, 0) << t.output;
+    auto i = RunFacecap("deepfake infer --model " + model + " --frames " + File("b.h5") + " --out " + out, 0, kEnv);
+    EXPECT_EQ(i.code, 0) << i.output;
+    const std::vector<uint8_t> translated = io::H5File::OpenRead(out).Read<uint8_t>("/frames/translated", {});
+    const std::vector<uint8_t> truth = io::H5File::OpenRead(File("b.h5")).Read<uint8_t>("/frames/segmentation", {});
+    EXPECT_EQ(translated.size(), truth.size());
+    double sum = 0;
+    for (size_t k = 0; k < std::min(translated.size(), truth.size()); ++k) sum += std::abs(translated[k] - truth[k]);
+    return sum / static_cast<double>(truth.size());
+  };
+  const double unpaired = error(""), paired = error(" --paired " + File("b.h5") + " --paired-fraction 1");
+  EXPECT_LT(paired, 0.8 * unpaired) << "paired " << paired << ", unpaired " << unpaired;
+
+  auto bad = RunFacecap(Train(File("paired_bad.h5"), 2) + " --paired " + File("samples2.h5"), 0, kEnv);
+  EXPECT_EQ(bad.code, kExitInput) << bad.output;
+  EXPECT_NE(bad.output.find("samples2.h5"), std::string::npos) << bad.output;
 }
 
 }  // namespace
