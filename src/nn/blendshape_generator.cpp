@@ -83,9 +83,10 @@ TORCH_MODULE(Decoder);
 // Template-conditioned output head of one branch: shape i of the branch at chart vertex x gets
 //   |S_i(x)| MLP(f(x), S_i(x) / sigma, |S_i(x)| / sigma)
 // added to its offsets, f the decoder's last features and the generator's input (a skip: the
-// neutral's geometry there at full resolution) sampled at x, sigma the RMS template motion. One MLP serves all the branch's shapes, so a shape's personal motion can depend on
-// its own template motion at that point; a 1x1 output convolution alone mixes the same c
-// features into every shape with weights that do not vary over the face. The output layer
+// neutral's geometry there at full resolution) sampled at x, sigma the RMS template motion.
+// One MLP serves all the branch's shapes, so a shape's personal motion can depend on its own
+// template motion at that point; a 1x1 output convolution alone mixes the same c features into
+// every shape with weights that do not vary over the face. The output layer
 // starts at zero (the generator still starts at the template). It runs only on the (shape,
 // vertex) pairs where the template moves (about a fifth of them); elsewhere it adds nothing.
 struct TemplateHeadImpl : torch::nn::Module {
@@ -105,7 +106,7 @@ struct TemplateHeadImpl : torch::nn::Module {
     magnitude = norm.index_select(0, pairs).unsqueeze(-1).contiguous();                          // [P, 1]
     motion = torch::cat({flat.index_select(0, pairs), magnitude}, -1).div(sigma).contiguous();  // [P, 4]
   }
-  // features [B, A, c] -> offsets [B, S, A, 3].
+  // features [B, A, F] (decoder features and input at each chart vertex) -> offsets [B, S, A, 3].
   torch::Tensor forward(const torch::Tensor& features) {
     const torch::Tensor hidden = torch::relu(from_features->forward(features).index_select(1, pair_vertex) +
                                              from_motion->forward(motion).unsqueeze(0));  // [B, P, width]
