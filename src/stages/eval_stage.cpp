@@ -96,25 +96,19 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
   std::vector<std::string> truth_names;
   for (const auto& s : rig.shapes) truth_names.push_back(s.name);
   if (truth.Exists(group + "/shape_names")) truth_names = truth.ReadStrings(group + "/shape_names");
-  const std::vector<std::string> track_names = track.ReadStrings("/track/shape_names");
-  // Column of each rig shape in the truth and in the track (by name).
-  std::vector<int> truth_col(S, -1), track_col(S, -1);
+  // Column of each rig shape in the truth (by name); the track's poses and weights in the
+  // rig's order come from TrackedRig.
+  std::vector<int> truth_col(S, -1);
   for (int s = 0; s < S; ++s) {
     for (size_t k = 0; k < truth_names.size(); ++k) {
       if (truth_names[k] == rig.shapes[s].name) truth_col[s] = static_cast<int>(k);
     }
-    for (size_t k = 0; k < track_names.size(); ++k) {
-      if (track_names[k] == rig.shapes[s].name) track_col[s] = static_cast<int>(k);
-    }
   }
+  const TrackedRig tracked(o.track, rig);
   const auto tw = truth.ReadMatrix<float>(group + "/weights");
   const auto tp = truth.ReadMatrix<float>(group + "/pose");
   Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> tt;
   if (truth.Exists(group + "/translation")) tt = truth.ReadMatrix<float>(group + "/translation");
-  const auto sw = track.ReadMatrix<float>("/track/weights");
-  const auto sp = track.ReadMatrix<float>("/track/pose", frames, 3);
-  const auto st = track.ReadMatrix<float>("/track/translation", frames, 3);
-  const std::vector<float> sscale = track.ReadVector<float>("/track/scale");
   const std::vector<double> seconds = track.ReadVector<double>("/track/seconds");
   const std::vector<double> cost = track.ReadVector<double>("/track/cost");
   const std::vector<int32_t> termination = track.ReadVector<int32_t>("/track/termination");
@@ -154,16 +148,11 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
       truth_pose = render::FramedPose(rig, distance, tp(f, 0), tp(f, 1),
                                       tp.cols() > 2 ? tp(f, 2) : 0.f);
     }
-    rig::RigidPose solved;
-    solved.pitch = sp(f, 0);
-    solved.yaw = sp(f, 1);
-    solved.roll = sp(f, 2);
-    solved.translation = st.row(f).transpose();
-    solved.scale = sscale[f];
-    Eigen::VectorXf wt = Eigen::VectorXf::Zero(S), ws = Eigen::VectorXf::Zero(S);
+    const rig::RigidPose solved = tracked.Pose(f);
+    const Eigen::VectorXf ws = tracked.Weights(f);
+    Eigen::VectorXf wt = Eigen::VectorXf::Zero(S);
     for (int s = 0; s < S; ++s) {
       if (truth_col[s] >= 0) wt[s] = tw(f, truth_col[s]);
-      if (track_col[s] >= 0) ws[s] = sw(f, track_col[s]);
       const double e = std::abs(wt[s] - ws[s]);
       per_shape[s] += e;
       weight_err += e / S;
