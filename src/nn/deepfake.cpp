@@ -177,11 +177,15 @@ bool DeepfakeNetworkOptions::Check(std::string* why) const {
 }
 
 bool DeepfakeLossOptions::Check(std::string* why) const {
-  for (float w : {l1_weight, l2_weight, dssim_weight, image_gan_weight, latent_gan_weight}) {
+  for (float w : {l1_weight, l2_weight, dssim_weight, image_gan_weight, latent_gan_weight, palette_weight}) {
     if (!(w >= 0)) { *why = "loss weights must be >= 0"; return false; }
   }
   if (l1_weight + l2_weight + dssim_weight <= 0) {
     *why = "at least one of l1_weight, l2_weight, dssim_weight must be positive";
+    return false;
+  }
+  if (!(palette_temperature > 0)) {
+    *why = "palette_temperature must be positive";
     return false;
   }
   if (!(learning_rate > 0) || !(discriminator_learning_rate > 0)) {
@@ -197,11 +201,11 @@ bool DeepfakeLossOptions::Check(std::string* why) const {
 
 void DeepfakeLosses::ToArray(double* v) const {
   v[0] = recon_a; v[1] = recon_b; v[2] = image_adversarial; v[3] = latent_adversarial;
-  v[4] = image_discriminator; v[5] = latent_discriminator;
+  v[4] = image_discriminator; v[5] = latent_discriminator; v[6] = palette_a;
 }
 void DeepfakeLosses::FromArray(const double* v) {
   recon_a = v[0]; recon_b = v[1]; image_adversarial = v[2]; latent_adversarial = v[3];
-  image_discriminator = v[4]; latent_discriminator = v[5];
+  image_discriminator = v[4]; latent_discriminator = v[5]; palette_a = v[6];
 }
 
 void SetTorchThreads(int threads) {
@@ -368,6 +372,7 @@ struct DeepfakeTrainer::Impl {
   torch::Tensor first_moment_host, second_moment_host;  // host mirrors
   std::vector<torch::Tensor> gradient_views;
   int64_t step = 0;
+  torch::Tensor palette, palette_weights;  // [K, 3] and [K] on the device (SetPalette)
 
   DeepfakeModel::Impl& m() { return *model->impl_; }
   bool on_cpu() { return m().on_cpu(); }
@@ -486,6 +491,23 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     };
     // f_recon = ||D_A(E(I_A)) - I_A|| + ||D_B(E(I_B)) - I_B||
     const torch::Tensor recon_loss_a = reconstruction(recon_a, target_a);
+    // The palette term: the weighted cross-entropy of each pixel's target region (its nearest
+    // palette colour) under logits -|y - c_k|^2 / T, a weighted mean over the pixels.
+    torch::Tensor palette_loss = torch::zeros({}, recon_a.options());
+    if (w.palette_weight > 0 && t.palette.defined()) {
+      auto distances = [&](const torch::Tensor& images) {  // [B, 3, H, W] -> [B, K, H, W]
+        return (images.unsqueeze(1) - t.palette.view({1, -1, 3, 1, 1})).pow(2).sum(2);
+      };
+      torch::Tensor labels, pixel_weights;
+      {
+        torch::NoGradGuard no_grad;
+        labels = distances(target_a).argmin(1);                       // [B, H, W]
+        pixel_weights = t.palette_weights.index({labels});            // [B, H, W]
+      }
+      const torch::Tensor log_p = torch::log_softmax(-distances(recon_a) / w.palette_temperature, 1);
+      const torch::Tensor nll = -log_p.gather(1, labels.unsqueeze(1)).squeeze(1);
+      palette_loss = (nll * pixel_weights).mean();
+    }
     const torch::Tensor recon_loss_b = reconstruction(recon_b, target_b);
     // The generators' side of the asymmetric GAN losses (least squares): D_A maximizes f_image
     // by pushing G_image(D_A(E(I_A))) to 1; E maximizes f_latent by pushing G_latent(E(I_B))
@@ -495,7 +517,7 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     const torch::Tensor latent_adversarial =
         (1.0 - m.latent_discriminator->forward(code_b)).pow(2).mean();
     const torch::Tensor generator_loss =
-        (recon_loss_a + recon_loss_b + w.image_gan_weight * image_adversarial +
+        (recon_loss_a + recon_loss_b + w.palette_weight * palette_loss + w.image_gan_weight * image_adversarial +
          w.latent_gan_weight * latent_adversarial) * share;
     generator_loss.backward();
     {
@@ -520,9 +542,19 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     out.latent_adversarial = latent_adversarial.item<double>() * share;
     out.image_discriminator = image_discriminator.item<double>() * share;
     out.latent_discriminator = latent_discriminator.item<double>() * share;
+    out.palette_a = palette_loss.item<double>() * share;
   }
   if (!t.on_cpu()) t.gradients_host.copy_(t.gradients);
   return out;
+}
+
+void DeepfakeTrainer::SetPalette(const std::vector<float>& colors, const std::vector<float>& weights) {
+  if (colors.size() != 3 * weights.size() || weights.empty()) {
+    throw InvalidInputError("deepfake: the palette needs 3 colour values and one weight per region");
+  }
+  const torch::Device device = impl_->m().device;
+  impl_->palette = torch::tensor(colors, torch::kFloat32).view({-1, 3}).to(device);
+  impl_->palette_weights = torch::tensor(weights, torch::kFloat32).to(device);
 }
 
 void DeepfakeTrainer::OptimizerStep() {

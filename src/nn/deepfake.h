@@ -65,6 +65,13 @@ struct DeepfakeLossOptions {
   float dssim_weight = 1.f;           // weight of the DSSIM term of f_recon ((1 - SSIM) / 2)
   float image_gan_weight = 0.02f;     // weight of D_A's adversarial term (against G_image)
   float latent_gan_weight = 0.02f;    // weight of E's adversarial term (against G_latent)
+  // Weight of the palette term on D_A's output (DeepfakeTrainer::SetPalette): per pixel, the
+  // cross-entropy of the target's region under logits -|y - c_k|^2 / palette_temperature over
+  // the palette colours c_k, each region weighted by its rarity. D_A's targets are flat region
+  // colours, so their labels are known; L1 and DSSIM in RGB let a region a few pixels wide cost
+  // almost nothing when it is missing, the weighted cross-entropy does not.
+  float palette_weight = 0.f;
+  float palette_temperature = 0.02f;  // colour distance scale of the palette logits
   float learning_rate = 5e-4f;        // Adam step of E, D_A, D_B
   float discriminator_learning_rate = 2e-4f;  // Adam step of G_image, G_latent
   float beta1 = 0.5f;                 // Adam first-moment decay
@@ -77,6 +84,11 @@ struct DeepfakeLossOptions {
     v("dssim_weight", dssim_weight, "weight of the DSSIM reconstruction term");
     v("image_gan_weight", image_gan_weight, "weight of D_A's adversarial loss against G_image");
     v("latent_gan_weight", latent_gan_weight, "weight of E's adversarial loss against G_latent");
+    v("palette_weight", palette_weight,
+      "weight of the region cross-entropy of D_A's output over the segmentation palette, rare "
+      "regions weighted up (0: none)");
+    v("palette_temperature", palette_temperature,
+      "squared colour distance scale of the palette cross-entropy's logits");
     v("learning_rate", learning_rate, "Adam learning rate of the encoder and decoders");
     v("discriminator_learning_rate", discriminator_learning_rate,
       "Adam learning rate of the discriminators");
@@ -111,7 +123,8 @@ struct DeepfakeLosses {
   double latent_adversarial = 0;    // E's term: G_latent(E(I_B)) pushed to 1 (looks like A)
   double image_discriminator = 0;   // f_image = ||G_image(D_A(E(I_A)))|| + ||1 - G_image(I_A)||
   double latent_discriminator = 0;  // f_latent = ||G_latent(E(I_B))|| + ||1 - G_latent(E(I_A))||
-  static constexpr int kCount = 6;
+  double palette_a = 0;             // weighted region cross-entropy of D_A(E(I_A)) (palette_weight)
+  static constexpr int kCount = 7;
   void ToArray(double* v) const;
   void FromArray(const double* v);
 };
@@ -177,6 +190,9 @@ class DeepfakeTrainer {
   // Every loss is multiplied by `share` (this rank's fraction of the global batch), so that
   // the sum over ranks is the gradient of the global batch mean.
   DeepfakeLosses Backward(const TrainingBatch& batch, double share = 1.0);
+  // The region colours of domain A (RGB in [0, 1], [K, 3], background included) and each
+  // region's weight in the palette term (K); without a palette the term is off.
+  void SetPalette(const std::vector<float>& colors, const std::vector<float>& weights);
   // One Adam step on the gradient buffer; increments step().
   void OptimizerStep();
 

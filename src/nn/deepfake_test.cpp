@@ -147,6 +147,51 @@ TEST_F(DeepfakeTrainerTest, LossFallsOnATinyDataset) {
   EXPECT_LT(last, 0.6 * first) << "first 5 steps " << first / 5 << ", last 5 steps " << last / 5;
 }
 
+// The palette term (weighted region cross-entropy of D_A's output): split shares still sum to
+// the whole batch's gradient, and training lowers it.
+TEST_F(DeepfakeTrainerTest, PaletteTermSplitsExactlyAndFalls) {
+  DeepfakeLossOptions losses;
+  losses.learning_rate = 2e-3f;
+  losses.palette_weight = 1.f;
+  const std::vector<float> colors = {0.f, 0.f, 0.f, 250 / 255.f, 40 / 255.f, 40 / 255.f};
+  const std::vector<float> weights = {0.6f, 2.5f};
+  {
+    const TrainingBatch batch = MakeBatch(a_, b_, 0, 6, 3);
+    DeepfakeModel model(TinyNetwork(), 7);
+    DeepfakeTrainer trainer(&model, losses);
+    trainer.SetPalette(colors, weights);
+    const DeepfakeLosses whole = trainer.Backward(batch, 1.0);
+    EXPECT_GT(whole.palette_a, 0.0);
+    const std::vector<float> full(trainer.gradients(), trainer.gradients() + trainer.num_gradients());
+    std::vector<float> sum(full.size(), 0.f);
+    double palette = 0;
+    for (const auto& [first, count] : {std::pair<int, int>{0, 4}, std::pair<int, int>{4, 2}}) {
+      palette += trainer.Backward(Slice(batch, first, count), count / 6.0).palette_a;
+      for (size_t i = 0; i < sum.size(); ++i) sum[i] += trainer.gradients()[i];
+    }
+    double max_err = 0, max_abs = 0;
+    for (size_t i = 0; i < sum.size(); ++i) {
+      max_err = std::max(max_err, static_cast<double>(std::abs(sum[i] - full[i])));
+      max_abs = std::max(max_abs, static_cast<double>(std::abs(full[i])));
+    }
+    EXPECT_LT(max_err, 1e-4 * max_abs);
+    EXPECT_NEAR(palette, whole.palette_a, 1e-5);
+  }
+  DeepfakeModel model(TinyNetwork(), 7);
+  DeepfakeTrainer trainer(&model, losses);
+  trainer.SetPalette(colors, weights);
+  double first = 0, last = 0;
+  const int steps = 60;
+  for (int step = 0; step < steps; ++step) {
+    const DeepfakeLosses l = trainer.Backward(MakeBatch(a_, b_, (step * 4) % 12, 4, step), 1.0);
+    trainer.OptimizerStep();
+    if (step < 5) first += l.palette_a;
+    if (step >= steps - 5) last += l.palette_a;
+  }
+  EXPECT_LT(last, 0.5 * first) << "first 5 steps " << first / 5 << ", last 5 steps " << last / 5;
+  EXPECT_THROW(trainer.SetPalette({0.f, 0.f}, {1.f}), InvalidInputError);
+}
+
 TEST_F(DeepfakeTrainerTest, CheckpointContinuesBitwiseLikeTrainingStraightThrough) {
   testing::TempDir dir;
   auto train = [&](DeepfakeTrainer* trainer, int from, int to) {

@@ -22,6 +22,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <numeric>
 
 #include "contour/contours.h"
 #include "io/hdf5.h"
@@ -360,6 +361,59 @@ Regions ReadRegions(const io::H5File& f) {
   return r;
 }
 
+// The palette term's colours (the black background first, so that a region as black as the
+// background, the pupil, never takes its pixels; then the regions) and region weights:
+// (f_k)^-1/2 for a class covering the fraction f_k of the A targets' pixels (counted over every
+// rank's shard, so the same for any number of ranks), scaled so that the mean pixel weight is
+// 1, at most 20.
+struct PaletteWeights {
+  std::vector<float> colors, weights;
+  std::string summary;
+};
+
+PaletteWeights RegionWeights(const Regions& regions, const std::vector<const ImageShard*>& shards,
+                             const dist::Comm& comm) {
+  PaletteWeights out;
+  const int K = static_cast<int>(regions.names.size()) + 1;
+  out.colors = {0.f, 0.f, 0.f};
+  for (int r = 0; r + 1 < K; ++r) {
+    for (int c = 0; c < 3; ++c) out.colors.push_back(regions.colors(r, c));
+  }
+  std::vector<double> counts(K, 0.0);
+  for (const ImageShard* shard : shards) {
+    const int64_t pixels = shard->count() * shard->size * shard->size;
+    for (int64_t p = 0; p < pixels; ++p) {
+      const uint8_t* rgb = shard->pixels.data() + 3 * p;
+      int best = 0;
+      float best_distance = 1e30f;
+      for (int k = 0; k < K; ++k) {
+        float d = 0;
+        for (int c = 0; c < 3; ++c) {
+          const float e = rgb[c] / 255.f - out.colors[3 * k + c];
+          d += e * e;
+        }
+        if (d < best_distance) { best_distance = d; best = k; }
+      }
+      counts[best] += 1;
+    }
+  }
+  comm.SumReduce(counts.data(), K);
+  const double total = std::max(1.0, std::accumulate(counts.begin(), counts.end(), 0.0));
+  double mean = 0;  // mean pixel weight before scaling: sum_k f_k f_k^-1/2
+  for (int k = 0; k < K; ++k) mean += std::sqrt(counts[k] / total);
+  out.weights.assign(K, 0.f);
+  for (int k = 0; k < K; ++k) {
+    if (counts[k] <= 0) continue;
+    out.weights[k] = static_cast<float>(std::min(20.0, std::pow(counts[k] / total, -0.5) / mean));
+    char item[96];
+    std::snprintf(item, sizeof(item), "%s%s %.2f", out.summary.empty() ? "" : ", ",
+                  k == 0 ? "background" : regions.names[k - 1].c_str(), out.weights[k]);
+    out.summary += item;
+  }
+  return out;
+}
+
+
 void WriteRegions(io::H5File* f, const Regions& r) {
   if (r.names.empty()) return;
   f->WriteStrings("/regions/names", r.names);
@@ -518,6 +572,11 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
     palette.colors.push_back(pack(regions.colors(r, 0), regions.colors(r, 1), regions.colors(r, 2)));
     palette.kinds.push_back(nn::RegionKindOf(regions.names[r]));
   }
+  if (o.loss.palette_weight > 0) {
+    const PaletteWeights pw = RegionWeights(regions, {&shard_a, &paired_target}, comm);
+    trainer->SetPalette(pw.colors, pw.weights);
+    if (comm.IsMainRank()) FC_INFO("deepfake train: palette term, region weights {}", pw.summary);
+  }
   std::vector<uint8_t> repainted(3LL * shard_a.size * shard_a.size);
   for (int64_t step = start_step; step < o.steps; ++step) {
     Rng rng(static_cast<uint64_t>(o.seed), static_cast<uint64_t>(step) * 65536u + comm.rank());
@@ -561,11 +620,13 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
       const double elapsed = std::chrono::duration<double>(now - start).count();
       const double rate = (done - start_step) / std::max(elapsed, 1e-9);
       for (double& w : window) w /= window_steps;
-      FC_INFO("deepfake train: step {}/{} ({:.1f}%)  recon_a {:.4f}  recon_b {:.4f}  "
+      const std::string palette_term =
+          o.loss.palette_weight > 0 ? fmt::format("  palette_a {:.3f}", window[6]) : std::string();
+      FC_INFO("deepfake train: step {}/{} ({:.1f}%)  recon_a {:.4f}  recon_b {:.4f}{}  "
               "image_adv {:.3f}  latent_adv {:.3f}  f_image {:.3f}  f_latent {:.3f}  "
               "{:.2f} steps/s  ETA {}",
-              done, o.steps, 100.0 * done / o.steps, window[0], window[1], window[2], window[3],
-              window[4], window[5], rate, Progress::FormatSeconds((o.steps - done) / rate));
+              done, o.steps, 100.0 * done / o.steps, window[0], window[1], palette_term, window[2],
+              window[3], window[4], window[5], rate, Progress::FormatSeconds((o.steps - done) / rate));
       std::fill(std::begin(window), std::end(window), 0.0);
       window_steps = 0;
       last_line = now;

@@ -85,11 +85,17 @@ class DeepfakeStage : public ::testing::Test {
 
 testing::TempDir* DeepfakeStage::dir_ = nullptr;
 
+// (With the palette term on, whose region weights come from every rank's shard: the same
+// weights for any number of ranks.)
 TEST_F(DeepfakeStage, EveryRankHoldsTheSameWeightsOnTwoAndThreeRanks) {
+  std::vector<std::string> region_weights;
   for (int ranks : {2, 3}) {
     const std::string out = File("ranks" + std::to_string(ranks) + ".h5");
-    auto r = RunFacecap(Train(out, 5), ranks, kEnv);
+    auto r = RunFacecap(Train(out, 5) + " --palette-weight 1", ranks, kEnv);
     ASSERT_EQ(r.code, 0) << r.output;
+    const size_t at = r.output.find("region weights ");
+    ASSERT_NE(at, std::string::npos) << r.output;
+    region_weights.push_back(r.output.substr(at, r.output.find('\n', at) - at));
     EXPECT_NE(r.output.find("weights identical on " + std::to_string(ranks) + " rank(s)"),
               std::string::npos) << r.output;
     EXPECT_NE(r.output.find("steps/s"), std::string::npos) << r.output;
@@ -102,6 +108,8 @@ TEST_F(DeepfakeStage, EveryRankHoldsTheSameWeightsOnTwoAndThreeRanks) {
     EXPECT_TRUE(std::filesystem::exists(File("ranks" + std::to_string(ranks) + "_preview.png")));
     EXPECT_FALSE(std::filesystem::exists(out + ".checkpoint"));
   }
+  EXPECT_EQ(region_weights[0], region_weights[1]);
+  EXPECT_NE(region_weights[0].find("background"), std::string::npos) << region_weights[0];
 }
 
 TEST_F(DeepfakeStage, StoppedAndKilledRunsContinueToTheStraightResult) {
