@@ -89,13 +89,20 @@ TORCH_MODULE(Decoder);
 // every shape with weights that do not vary over the face. The output layer
 // starts at zero (the generator still starts at the template). It runs only on the (shape,
 // vertex) pairs where the template moves (about a fifth of them); elsewhere it adds nothing.
+// With `frame`, the head also works in the frame of the template motion: its hidden layer
+// sees the neutral's displacement along the motion, d(x) . S_i(x) / |S_i(x)| (a product that
+// a ReLU layer only approximates), and a fourth output is a gain on the template motion
+// itself, adding gain S_i(x) (a person moving a point further or less along the same path).
 struct TemplateHeadImpl : torch::nn::Module {
-  // deltas: the branch's template motion S_i(x), [S, A, 3]; sigma: the RMS template motion.
-  TemplateHeadImpl(int features, int width, const torch::Tensor& deltas, double sigma)
-      : shapes(deltas.size(0)), vertices(deltas.size(1)) {
+  // deltas: the branch's template motion S_i(x), [S, A, 3]; sigma: the RMS template motion;
+  // displacement: the first of the 3 feature columns that hold the neutral's displacement.
+  TemplateHeadImpl(int features, int width, const torch::Tensor& deltas, double sigma, bool frame,
+                   int64_t displacement)
+      : shapes(deltas.size(0)), vertices(deltas.size(1)), frame(frame), displacement(displacement) {
     from_features = register_module("features", torch::nn::Linear(features, width));
     from_motion = register_module("motion", torch::nn::Linear(torch::nn::LinearOptions(4, width).bias(false)));
-    output = register_module("output", torch::nn::Linear(width, 3));
+    output = register_module("output", torch::nn::Linear(width, frame ? 4 : 3));
+    if (frame) from_along = register_module("along", torch::nn::Linear(torch::nn::LinearOptions(1, width).bias(false)));
     torch::NoGradGuard no_grad;
     output->weight.zero_();
     output->bias.zero_();
@@ -103,23 +110,58 @@ struct TemplateHeadImpl : torch::nn::Module {
     const torch::Tensor norm = flat.norm(2, -1);
     pairs = torch::nonzero(norm > 0).reshape({-1});
     pair_vertex = torch::remainder(pairs, vertices);
+    pair_deltas = flat.index_select(0, pairs).contiguous();                                      // [P, 3]
     magnitude = norm.index_select(0, pairs).unsqueeze(-1).contiguous();                          // [P, 1]
-    motion = torch::cat({flat.index_select(0, pairs), magnitude}, -1).div(sigma).contiguous();  // [P, 4]
+    direction = (pair_deltas / magnitude).contiguous();                                          // [P, 3]
+    motion = torch::cat({pair_deltas, magnitude}, -1).div(sigma).contiguous();                  // [P, 4]
   }
   // features [B, A, F] (decoder features and input at each chart vertex) -> offsets [B, S, A, 3].
   torch::Tensor forward(const torch::Tensor& features) {
-    const torch::Tensor hidden = torch::relu(from_features->forward(features).index_select(1, pair_vertex) +
-                                             from_motion->forward(motion).unsqueeze(0));  // [B, P, width]
-    const torch::Tensor values = output->forward(hidden) * magnitude;                     // [B, P, 3]
+    torch::Tensor hidden = from_features->forward(features).index_select(1, pair_vertex) +
+                           from_motion->forward(motion).unsqueeze(0);  // [B, P, width]
+    if (frame) {
+      const torch::Tensor d = features.narrow(2, displacement, 3).index_select(1, pair_vertex);  // [B, P, 3]
+      hidden = hidden + from_along->forward((d * direction).sum(-1, true));
+    }
+    const torch::Tensor out = output->forward(torch::relu(hidden));
+    torch::Tensor values = out.narrow(2, 0, 3) * magnitude;  // [B, P, 3]
+    if (frame) values = values + out.narrow(2, 3, 1) * pair_deltas;
     const int64_t B = features.size(0);
     return torch::zeros({B, shapes * vertices, 3}, values.options()).index_add(1, pairs, values)
         .reshape({B, shapes, vertices, 3});
   }
   int64_t shapes, vertices;
-  torch::Tensor pairs, pair_vertex, magnitude, motion;  // the moving pairs s A + x, their x, |S_s(x)|, input
-  torch::nn::Linear from_features{nullptr}, from_motion{nullptr}, output{nullptr};
+  bool frame;
+  int64_t displacement;
+  // The moving pairs s A + x, their x, S_s(x), |S_s(x)|, S_s(x) / |S_s(x)|, the motion input.
+  torch::Tensor pairs, pair_vertex, pair_deltas, magnitude, direction, motion;
+  torch::nn::Linear from_features{nullptr}, from_motion{nullptr}, output{nullptr}, from_along{nullptr};
 };
 TORCH_MODULE(TemplateHead);
+
+// Per-shape amplitude from the whole neutral: the neutral's displacement image averaged to
+// 16 x 16, one tanh layer and a linear layer to one number a_i per shape, which scales the
+// shape: S_i^j = (1 + a_i)(S_i + Delta S_i). How strongly a person performs a shape as a whole
+// depends on their identity everywhere on the face (in the synthetic database, the factor g_i
+// of a global identity projection), which the convolutions' local receptive fields cannot see.
+// The output layer starts at zero (a = 0).
+struct AmplitudeImpl : torch::nn::Module {
+  static constexpr int kGrid = 16;
+  AmplitudeImpl(int width, int num_shapes) {
+    hidden = register_module("hidden", torch::nn::Linear(3 * kGrid * kGrid, width));
+    output = register_module("output", torch::nn::Linear(width, num_shapes));
+    torch::NoGradGuard no_grad;
+    output->weight.zero_();
+    output->bias.zero_();
+  }
+  // input [B, C, H, W] (the first 3 channels: the displacement image) -> a [B, N].
+  torch::Tensor forward(const torch::Tensor& input) {
+    const torch::Tensor pooled = F::adaptive_avg_pool2d(input.narrow(1, 0, 3), F::AdaptiveAvgPool2dFuncOptions({kGrid, kGrid}));
+    return output->forward(torch::tanh(hidden->forward(pooled.flatten(1))));
+  }
+  torch::nn::Linear hidden{nullptr}, output{nullptr};
+};
+TORCH_MODULE(Amplitude);
 
 struct GeneratorOutput {
   torch::Tensor image;     // [B, 3N, H, W], channels in shape order (the 1x1 output layers)
@@ -132,7 +174,7 @@ struct GeneratorOutput {
 // template_deltas: S_i on the chart vertices, [N, A, 3].
 struct GeneratorImpl : torch::nn::Module {
   GeneratorImpl(int in, int c, int blocks, const std::vector<int>& large, int num_shapes, int head_width,
-                const torch::Tensor& template_deltas)
+                bool head_frame, int amplitude_width, const torch::Tensor& template_deltas)
       : channels(c) {
     encoder = register_module("encoder", Encoder(in, c, blocks));
     std::vector<uint8_t> is_large(num_shapes, 0);
@@ -158,11 +200,13 @@ struct GeneratorImpl : torch::nn::Module {
       auto branch = [&](const std::vector<int64_t>& order, const char* name, TemplateHead* head) {
         if (order.empty()) return;
         const torch::Tensor deltas = template_deltas.index_select(0, torch::tensor(order, torch::kLong));
-        *head = register_module(name, TemplateHead(c + in, head_width, deltas, sigma));
+        // The head's features: the branch's c decoder features, then the input (displacement first).
+        *head = register_module(name, TemplateHead(c + in, head_width, deltas, sigma, head_frame, c));
       };
       branch(order_large, "large_head", &heads[0]);
       branch(order_small, "small_head", &heads[1]);
     }
+    if (amplitude_width > 0) amplitude = register_module("amplitude", Amplitude(amplitude_width, num_shapes));
   }
   GeneratorOutput forward(const torch::Tensor& x) {
     const torch::Tensor code = encoder->forward(x);
@@ -191,6 +235,7 @@ struct GeneratorImpl : torch::nn::Module {
   Encoder encoder{nullptr};
   Decoder large_branch{nullptr}, small_branch{nullptr};
   TemplateHead heads[2] = {TemplateHead{nullptr}, TemplateHead{nullptr}};  // large, small
+  Amplitude amplitude{nullptr};  // per-shape amplitude (optional)
   std::vector<int64_t> branch_shapes[2];  // the shapes of the large and the small branch
   torch::Tensor permutation, shape_permutation;
   bool has_large = false, has_small = false;
@@ -198,7 +243,7 @@ struct GeneratorImpl : torch::nn::Module {
 TORCH_MODULE(Generator);
 
 // Blending Weight Predictor: expression encoder to N weights in [0, 1]. The output layer
-// starts at zero so the first prediction is the nominal FACS weights (squashed to 0.02/0.98).
+// starts at zero so the first prediction is the nominal weights (clamped to [0.018, 0.982]).
 struct WeightPredictorImpl : torch::nn::Module {
   WeightPredictorImpl(int in, int c, int num_shapes) {
     layers = register_module("layers", torch::nn::Sequential());
@@ -217,7 +262,7 @@ struct WeightPredictorImpl : torch::nn::Module {
     output->bias.zero_();
   }
   torch::Tensor forward(const torch::Tensor& x, const torch::Tensor& nominal) {
-    return torch::sigmoid(8.f * (nominal - 0.5f) + output->forward(layers->forward(x)));
+    return torch::sigmoid(torch::logit(nominal.clamp(0.018f, 0.982f)) + output->forward(layers->forward(x)));
   }
   torch::nn::Sequential layers{nullptr};
   torch::nn::Linear output{nullptr};
@@ -416,11 +461,15 @@ struct FastHeads {
     Eigen::MatrixXf from_features;  // [width, c + C]
     Eigen::VectorXf bias;           // [width]
     Eigen::MatrixXf motion;         // [width, P]: the motion term of each pair
-    Eigen::MatrixXf output;         // [3, width]
-    Eigen::Vector3f output_bias;
+    Eigen::MatrixXf output;         // [3 or 4, width]
+    Eigen::VectorXf output_bias;
+    Eigen::VectorXf along;          // [width]: weights of d . direction (frame heads)
+    Eigen::MatrixXf deltas, direction;   // [3, P]: S_i(x) and its direction (frame heads)
     std::vector<int64_t> vertex, shape;  // per pair: chart vertex, shape (shape order)
     std::vector<float> magnitude;        // per pair: |S_i(x)|
     int64_t first_feature = 0;           // the branch's first row among the sampled features
+    bool frame = false;
+    int64_t displacement = 0;            // row of the displacement among [features; input]
   };
   std::vector<Head> heads;
   int64_t channels = 0;
@@ -440,6 +489,13 @@ struct FastHeads {
       h.motion = matrix(torch::matmul(t.motion, t.from_motion->weight.detach().t()).t());
       h.output = matrix(t.output->weight);
       h.output_bias = matrix(t.output->bias.unsqueeze(1));
+      h.frame = t.frame;
+      h.displacement = t.displacement;
+      if (t.frame) {
+        h.along = matrix(t.from_along->weight);
+        h.deltas = matrix(t.pair_deltas.t());
+        h.direction = matrix(t.direction.t());
+      }
       const int64_t P = t.pairs.size(0);
       const int64_t* pairs = t.pairs.data_ptr<int64_t>();
       for (int64_t p = 0; p < P; ++p) {
@@ -460,16 +516,20 @@ struct FastHeads {
       x.topRows(channels) = Eigen::Map<const RowMajor>(features + h.first_feature * A, channels, A);
       x.bottomRows(input_channels) = Eigen::Map<const RowMajor>(input, input_channels, A);
       const Eigen::MatrixXf per_vertex = (h.from_features * x).colwise() + h.bias;  // [width, A]
-      Eigen::VectorXf hidden(per_vertex.rows());
-      Eigen::Vector3f o;
+      Eigen::VectorXf hidden(per_vertex.rows()), o(h.output.rows());
       for (size_t p = 0; p < h.vertex.size(); ++p) {
-        hidden = (per_vertex.col(h.vertex[p]) + h.motion.col(p)).cwiseMax(0.f);
+        const int64_t v = h.vertex[p];
+        hidden = per_vertex.col(v) + h.motion.col(p);
+        if (h.frame) {
+          const float along = x(h.displacement, v) * h.direction(0, p) + x(h.displacement + 1, v) * h.direction(1, p) +
+                              x(h.displacement + 2, v) * h.direction(2, p);
+          hidden += along * h.along;
+        }
+        hidden = hidden.cwiseMax(0.f);
         o.noalias() = h.output * hidden;
-        o = (o + h.output_bias) * h.magnitude[p];
-        float* y = out + (h.shape[p] * A + h.vertex[p]) * 3;
-        y[0] += o[0];
-        y[1] += o[1];
-        y[2] += o[2];
+        o += h.output_bias;
+        float* y = out + (h.shape[p] * A + v) * 3;
+        for (int c = 0; c < 3; ++c) y[c] += o[c] * h.magnitude[p] + (h.frame ? o[3] * h.deltas(c, p) : 0.f);
       }
     }
   }
@@ -481,6 +541,7 @@ bool BlendshapeNetOptions::Check(std::string* why) const {
   if (channels < 2 || channels > 128) { *why = "channels must be in [2, 128]"; return false; }
   if (residual_blocks < 0 || residual_blocks > 8) { *why = "residual_blocks must be in [0, 8]"; return false; }
   if (head_width < 0 || head_width > 256) { *why = "head_width must be in [0, 256]"; return false; }
+  if (amplitude_width < 0 || amplitude_width > 256) { *why = "amplitude_width must be in [0, 256]"; return false; }
   if (!(learning_rate > 0.f && learning_rate < 1.f)) { *why = "learning_rate must be in (0, 1)"; return false; }
   if (!(reg_weight >= 0.f)) { *why = "reg_weight must be >= 0"; return false; }
   if (!(tuning_reg_weight >= 0.f)) { *why = "tuning_reg_weight must be >= 0"; return false; }
@@ -525,6 +586,15 @@ struct BlendshapeGenerator::Impl {
     const torch::Tensor linear = SampleChannels(out.image).reshape({out.image.size(0), N(), 3, A()}).permute({0, 1, 3, 2});
     if (!g->HasHeads()) return linear;
     return linear + g->HeadOffsets(SampleChannels(out.features), SampleChannels(out.input));
+  }
+  // The Estimation generator's per-shape amplitude a [B, N] (zeros without one).
+  torch::Tensor AmplitudeOf(const torch::Tensor& input) {
+    if (generator->amplitude.is_empty()) return torch::zeros({input.size(0), N()}, input.options());
+    return generator->amplitude->forward(input);
+  }
+  // offsets [B, N, A, 3] -> (1 + a_i)(S_i + offsets_i) - S_i.
+  torch::Tensor Amplified(const torch::Tensor& offsets, const torch::Tensor& amplitude) const {
+    return offsets + amplitude.unsqueeze(-1).unsqueeze(-1) * (template_deltas + offsets);
   }
   // The Tuning generator sees the neutral and the initial blendshapes through the Estimation
   // decoders' last features (the offsets are computed from them), compressed to c channels.
@@ -605,9 +675,9 @@ BlendshapeGenerator::BlendshapeGenerator(const BlendshapeNetOptions& options,
   m.template_deltas = torch::from_blob(const_cast<float*>(g.template_deltas.data()),
                                        {g.num_shapes, g.num_chart_vertices, 3}, f32).clone();
   m.generator = Generator(in, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes, options.head_width,
-                          m.template_deltas);
+                          options.head_frame, options.amplitude_width, m.template_deltas);
   m.tuning = Generator(in + c, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes, options.head_width,
-                       m.template_deltas);
+                       options.head_frame, 0, m.template_deltas);
   const int branches = (m.generator->has_large ? 1 : 0) + (m.generator->has_small ? 1 : 0);
   m.offsets_in = Conv(branches * c, c, 1);
   m.predictor = WeightPredictor(in, c, g.num_shapes);
@@ -666,19 +736,23 @@ double BlendshapeGenerator::Backward(const std::vector<const BlendshapePerson*>&
 
   torch::Tensor offsets, weights, regularization;
   if (stage == TrainingStage::kEstimation) {
-    offsets = m.Offsets(m.generator, m.generator->forward(input));        // Delta S_i, [B,N,A,3]
+    offsets = m.Amplified(m.Offsets(m.generator, m.generator->forward(input)), m.AmplitudeOf(input));  // Delta S_i, [B,N,A,3]
     weights = alpha;
     // L_reg (eq. 4): sum_i g_i m_i(x) |Delta S_i(x)|_1, as a mean over shapes and vertices.
     regularization = (m.reg_weights * offsets.abs().sum(-1)).mean({1, 2});
   } else {
     GeneratorOutput estimation;
-    torch::Tensor initial;
+    torch::Tensor initial, amplitude;
     {
       torch::NoGradGuard no_grad;
       estimation = m.generator->forward(input);
-      initial = m.Offsets(m.generator, estimation);
+      amplitude = m.AmplitudeOf(input);
+      initial = m.Amplified(m.Offsets(m.generator, estimation), amplitude);
     }
-    const torch::Tensor residual = m.Offsets(m.tuning, m.TuningForward(input, estimation));
+    // The Tuning generator's output joins the Estimation offsets before the amplitude:
+    // (1 + a)(S + E + T) - S = Delta S_i + (1 + a) T.
+    const torch::Tensor residual = m.Offsets(m.tuning, m.TuningForward(input, estimation)) *
+                                   (1.f + amplitude).unsqueeze(-1).unsqueeze(-1);
     offsets = initial + residual;                                          // Delta S_i_FT (skip)
     const torch::Tensor images =
         m.WithStatic(torch::from_blob(expression_images.data(), {B * K, 3, H, H}, f32));
@@ -850,6 +924,15 @@ std::vector<float> BlendshapeGenerator::PredictOffsets(const std::vector<float>&
     f.tuning_heads->Add(sampled.data_ptr<float>() + (fg + 1) * A, samples.data_ptr<float>(), samples.size(1), A,
                         out.data());
   }
+  // The amplitude: out_i = (1 + a_i)(S_i + out_i) - S_i.
+  if (!m.generator->amplitude.is_empty()) {
+    const torch::Tensor a = m.generator->amplitude->forward(input).contiguous();
+    const float* amplitude = a.data_ptr<float>();
+    const float* S = m.geometry->template_deltas.data();
+    for (int64_t i = 0; i < N; ++i) {
+      for (int64_t j = i * A * 3; j < (i + 1) * A * 3; ++j) out[j] += amplitude[i] * (S[j] + out[j]);
+    }
+  }
   return out;
 }
 
@@ -871,7 +954,7 @@ std::vector<float> BlendshapeGenerator::PredictOffsetsWithModules(const std::vec
   const GeneratorOutput estimation = m.generator->forward(input);
   torch::Tensor offsets = m.Offsets(m.generator, estimation);
   if (tuned) offsets = offsets + m.Offsets(m.tuning, m.TuningForward(input, estimation));
-  offsets = offsets.contiguous();
+  offsets = m.Amplified(offsets, m.AmplitudeOf(input)).contiguous();
   return std::vector<float>(offsets.data_ptr<float>(), offsets.data_ptr<float>() + offsets.numel());
 }
 

@@ -26,6 +26,8 @@ struct BlendshapeNetOptions {
   int channels = 12;              // feature channels of the first generator layer (x2, x4 deeper)
   int residual_blocks = 2;        // encoder residual blocks at 1/4 resolution
   int head_width = 32;            // hidden units of the template-conditioned heads (0: none)
+  bool head_frame = true;         // heads also in the frame of the template motion (see the .cpp)
+  int amplitude_width = 32;       // hidden units of the per-shape amplitude from the whole neutral (0: none)
   float learning_rate = 2e-3f;    // Adam step size
   float reg_weight = 1.f;         // omega_reg of L_G = L_rec + omega_reg L_reg (eq. 7)
   float tuning_reg_weight = 0.1f; // omega_reg_FT of L_G_FT (eq. 9)
@@ -36,6 +38,8 @@ struct BlendshapeNetOptions {
     v("channels", channels, "feature channels of the first generator layer (doubled twice deeper)");
     v("residual_blocks", residual_blocks, "encoder residual blocks at quarter resolution");
     v("head_width", head_width, "hidden units of the output head that conditions each shape's offsets on its template motion (0: 1x1 output convolutions only)");
+    v("head_frame", head_frame, "the heads also see the neutral's displacement along each shape's template motion and output a gain on that motion");
+    v("amplitude_width", amplitude_width, "hidden units of the per-shape amplitude a_i predicted from the whole neutral, S_i^j = (1 + a_i)(S_i + Delta S_i) (0: none)");
     v("learning_rate", learning_rate, "Adam step size");
     v("reg_weight", reg_weight, "omega_reg: weight of L_reg in the Estimation Stage (eq. 7)");
     v("tuning_reg_weight", tuning_reg_weight, "omega_reg_FT: weight of L_reg_FT in the Tuning Stage (eq. 9)");
@@ -64,7 +68,7 @@ struct BlendshapePerson {
   std::vector<float> neutral;            // S_0^j on the chart vertices [A, 3] (cm)
   std::vector<float> expressions;        // P_k^j on the chart vertices [K, A, 3] (cm)
   std::vector<float> expression_images;  // normalized (P_k^j - S_0^j) images [K, 3, H, W]
-  std::vector<float> nominal_weights;    // alpha_k, the FACS table's 0/1 weights [K, N]
+  std::vector<float> nominal_weights;    // alpha_k: the FACS table's 0/1 weights (times a nominal weight) [K, N]
   int num_expressions = 0;               // K
 };
 

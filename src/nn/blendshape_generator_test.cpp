@@ -1,7 +1,7 @@
 // The blendshape generator's inference form (PredictOffsets: oneDNN convolutions, output layers
-// and sampling folded into one matrix) against the training modules' forward on small random
-// networks: the same offsets to float rounding, with and without the Tuning Stage, after the
-// parameters change, and from several threads at once.
+// and sampling folded into one matrix, heads and amplitude in plain loops) against the training
+// modules' forward on small random networks: the same offsets to float rounding, with and
+// without the Tuning Stage, after the parameters change, and from several threads at once.
 #include "nn/blendshape_generator.h"
 
 #include <algorithm>
@@ -80,10 +80,15 @@ double RelativeDifference(const std::vector<float>& fast, const std::vector<floa
 
 constexpr double kTolerance = 1e-5;
 
+// (Also for the networks of older models: heads without the motion frame, no amplitude.)
 TEST(BlendshapeGenerator, InferenceFormMatchesTheModulesWithAndWithoutTuning) {
-  struct Case { int shapes; std::vector<int> large; };
-  for (const Case& c : {Case{20, {3, 7, 1, 12, 18}}, Case{9, {0, 1, 2, 3, 4, 5, 6, 7}}}) {
-    BlendshapeGenerator model(SmallNetwork(), RandomGeometry(c.shapes, c.large, 37, c.shapes));
+  struct Case { int shapes; std::vector<int> large; bool frame; int amplitude; };
+  for (const Case& c : {Case{20, {3, 7, 1, 12, 18}, true, 32}, Case{9, {0, 1, 2, 3, 4, 5, 6, 7}, true, 8},
+                        Case{20, {3, 7, 1, 12, 18}, false, 0}}) {
+    BlendshapeNetOptions options = SmallNetwork();
+    options.head_frame = c.frame;
+    options.amplitude_width = c.amplitude;
+    BlendshapeGenerator model(options, RandomGeometry(c.shapes, c.large, 37, c.shapes));
     Perturb(&model, 5);
     for (uint64_t seed : {1, 2}) {
       const std::vector<float> image = RandomImage(seed);
@@ -91,7 +96,7 @@ TEST(BlendshapeGenerator, InferenceFormMatchesTheModulesWithAndWithoutTuning) {
         const std::vector<float> fast = model.PredictOffsets(image, tuned);
         ASSERT_EQ(fast.size(), static_cast<size_t>(c.shapes) * 37 * 3);
         EXPECT_LT(RelativeDifference(fast, model.PredictOffsetsWithModules(image, tuned)), kTolerance)
-            << c.shapes << " shapes, tuned " << tuned;
+            << c.shapes << " shapes, frame " << c.frame << ", amplitude " << c.amplitude << ", tuned " << tuned;
       }
     }
   }

@@ -194,6 +194,7 @@ struct BlendshapesTrainOptions {
   int checkpoint_every = 50;          // steps between checkpoints
   int threads = 0;                    // tensor threads per rank (0: the cores divided among ranks)
   int seed = 1;                       // batch order seed
+  float nominal_weight = 1.f;         // the weight of a FACS table's 1 in training
   nn::BlendshapeNetOptions net;       // networks and losses
 
   template <class V>
@@ -207,6 +208,10 @@ struct BlendshapesTrainOptions {
     v("checkpoint_every", checkpoint_every, "optimizer steps between checkpoints");
     v("threads", threads, "tensor threads per rank (0: the cores divided among the node's ranks)");
     v("seed", seed, "batch order seed");
+    v("nominal_weight", nominal_weight,
+      "the weight a FACS table's 1 stands for in training: the Estimation Stage's weights and the "
+      "weight predictor's start (captured expressions are rarely at full intensity; the shapes "
+      "are then learnt at the intensity they have at weight 1, not at the scans' mean)");
     net.Visit(v);
   }
   bool Check(std::string* why) const {
@@ -216,6 +221,7 @@ struct BlendshapesTrainOptions {
     if (batch < 1) { *why = "batch must be >= 1"; return false; }
     if (checkpoint_every < 1) { *why = "checkpoint_every must be >= 1"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    if (!(nominal_weight > 0.f && nominal_weight <= 1.f)) { *why = "nominal_weight must be in (0, 1]"; return false; }
     return net.Check(why);
   }
 };
@@ -276,7 +282,7 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
       const auto img = DisplacementImage(setup, data.expressions[j].col(k), neutral_image_raw, expression_scale);
       p.expression_images.insert(p.expression_images.end(), img.begin(), img.end());
     }
-    Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> a = data.alpha;
+    Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> a = o.nominal_weight * data.alpha;
     p.nominal_weights.assign(a.data(), a.data() + a.size());
   });
   nn::BlendshapeGenerator model(o.net, setup.geometry);
@@ -379,6 +385,8 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
     f.SetAttribute("/model/parameters", "channels", static_cast<int64_t>(o.net.channels));
     f.SetAttribute("/model/parameters", "residual_blocks", static_cast<int64_t>(o.net.residual_blocks));
     f.SetAttribute("/model/parameters", "head_width", static_cast<int64_t>(o.net.head_width));
+    f.SetAttribute("/model/parameters", "amplitude_width", static_cast<int64_t>(o.net.amplitude_width));
+    f.SetAttribute("/model/parameters", "head_frame", static_cast<int64_t>(o.net.head_frame ? 1 : 0));
     f.SetAttribute("/model/parameters", "input_scale", static_cast<double>(input_scale));
     f.SetAttribute("/model/parameters", "expression_scale", static_cast<double>(expression_scale));
     f.SetAttribute("/model/parameters", "train_seconds", seconds);
@@ -418,6 +426,11 @@ LoadedModel LoadModel(const std::string& path) {
     throw FileIOError(path + ": a model from before the template-conditioned heads (no head_width attribute); train it again");
   }
   no.head_width = static_cast<int>(f.GetIntAttribute("/model/parameters", "head_width"));
+  // (Models from before the per-shape amplitude and the motion-frame heads have neither.)
+  no.head_frame = f.HasAttribute("/model/parameters", "head_frame") &&
+                  f.GetIntAttribute("/model/parameters", "head_frame") != 0;
+  no.amplitude_width = f.HasAttribute("/model/parameters", "amplitude_width")
+                           ? static_cast<int>(f.GetIntAttribute("/model/parameters", "amplitude_width")) : 0;
   m.input_scale = static_cast<float>(f.GetDoubleAttribute("/model/parameters", "input_scale"));
   m.setup = MakeNetSetup(m.topology, m.tmpl, size);
   m.model = std::make_unique<nn::BlendshapeGenerator>(no, m.setup.geometry);
@@ -613,6 +626,7 @@ struct EvalBlendshapesOptions {
   std::string baselines = "baselines.h5";  // from blendshapes baselines
   std::string model = "bsgen.h5";          // from blendshapes train
   std::string markdown;                    // also write the markdown table here ("" : log only)
+  std::string shapes;                      // also write ours' shapes and per-scan errors here
   bool json = false;                       // print the metrics as one JSON object on stdout
 
   template <class V>
@@ -621,6 +635,9 @@ struct EvalBlendshapesOptions {
     v("baselines", baselines, "template and example-based shapes (HDF5, from blendshapes baselines)");
     v("model", model, "trained model (HDF5, from blendshapes train)");
     v("markdown", markdown, "file for the markdown table (empty: the log only)");
+    v("shapes", shapes, "HDF5 file for the generated shapes of every person (/shapes/ours/deltas, "
+      "/shapes/ours_estimation/deltas [P, N, V, 3], cm) and every method's per-scan errors "
+      "(/errors/<method> [P, K], mm) (empty: none)");
     v("json", json, "print the metrics as one JSON object on stdout");
   }
   bool Check(std::string* why) const {
@@ -662,6 +679,15 @@ void RunEvalBlendshapes(const StageFlags& flags, AppState* state) {
     double error[5][2] = {}, unseen_error[5][2] = {}, truth_distance[5][2] = {};
     int scans_count[2] = {0, 0}, unseen_count[2] = {0, 0}, people_count[2] = {0, 0};
     double inference_ms = 0;
+    io::H5File shapes_file;
+    std::vector<Eigen::MatrixXd> scan_errors(M, Eigen::MatrixXd(K, P));  // per method: [K, P] (mm)
+    if (!o.shapes.empty()) {
+      shapes_file = io::H5File::CreateAtomic(o.shapes);
+      shapes_file.WriteProvenance(MakeProvenance(ctx, "eval blendshapes", resolved));
+      for (const char* name : {"/shapes/ours/deltas", "/shapes/ours_estimation/deltas"}) {
+        shapes_file.CreateFrames<float>(name, {N, V, 3}, P, 1);
+      }
+    }
     for (int j = 0; j < P; ++j) {
       const int s = data.split[j];
       Eigen::MatrixXf shapes[5], holdout;
@@ -683,11 +709,16 @@ void RunEvalBlendshapes(const StageFlags& flags, AppState* state) {
       for (int t = 0; t < M; ++t) {
         const Eigen::VectorXd e = assets::ReconstructionErrors(data.neutral[j], shapes[t], data.expressions[j], moving);
         error[t][s] += 10.0 * e.sum();
+        scan_errors[t].col(j) = 10.0 * e;
         if (!unseen.empty()) {
           const Eigen::MatrixXf& used = t == 1 ? holdout : shapes[t];
           unseen_error[t][s] += 10.0 * assets::ReconstructionErrors(data.neutral[j], used, unseen_expressions, moving).sum();
         }
         if (has_truth) truth_distance[t][s] += 10.0 * assets::MeanShapeDistance(shapes[t], data.truth[j], moving);
+      }
+      if (!o.shapes.empty()) {
+        shapes_file.WriteFrames<float>("/shapes/ours/deltas", j, 1, shapes[2].data());
+        shapes_file.WriteFrames<float>("/shapes/ours_estimation/deltas", j, 1, shapes[3].data());
       }
       scans_count[s] += static_cast<int>(data.expressions[j].cols());
       unseen_count[s] += static_cast<int>(unseen.size());
@@ -752,6 +783,15 @@ void RunEvalBlendshapes(const StageFlags& flags, AppState* state) {
       std::ofstream md(o.markdown);
       md << table;
       if (!md) throw OutputError(o.markdown + ": cannot write the table");
+    }
+    if (!o.shapes.empty()) {
+      for (int t = 0; t < M; ++t) {
+        const Eigen::MatrixXf e = scan_errors[t].cast<float>();  // column-major [K, P]: row-major [P, K]
+        shapes_file.Write<float>(std::string("/errors/") + methods[t], {P, K}, e.data());
+      }
+      shapes_file.Write<int32_t>("/errors/split", {P}, data.split.data());
+      shapes_file.Commit();
+      FC_INFO("eval blendshapes: shapes and per-scan errors -> {}", o.shapes);
     }
     if (o.json) std::cout << json << std::endl;
   });

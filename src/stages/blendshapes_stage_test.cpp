@@ -64,7 +64,9 @@ TEST_F(Blendshapes, BaselinesEvalAndInferenceProduceTheTableAndARig) {
   ASSERT_EQ(RunFacecap(Train(model)).code, 0);
   auto b = RunFacecap("blendshapes baselines --scans " + Scans() + " --iterations 1 --out " + baselines);
   ASSERT_EQ(b.code, 0) << b.output;
-  auto e = RunFacecap("eval blendshapes --scans " + Scans() + " --baselines " + baselines + " --model " + model + " --json");
+  const std::string shapes = dir_->File("shapes.h5");
+  auto e = RunFacecap("eval blendshapes --scans " + Scans() + " --baselines " + baselines + " --model " + model +
+                      " --shapes " + shapes + " --json");
   ASSERT_EQ(e.code, 0) << e.output;
   for (const char* key : {"\"template_train\"", "\"template_test\"", "\"example_based_train\"", "\"example_based_test\"",
                           "\"ours_train\"", "\"ours_test\"", "\"ours_vs_truth_test\"", "\"ours_estimation_test\"", "\"truth_test\"",
@@ -80,6 +82,25 @@ TEST_F(Blendshapes, BaselinesEvalAndInferenceProduceTheTableAndARig) {
   };
   EXPECT_LT(number("truth_test"), number("template_test"));
   EXPECT_LT(number("truth_test"), number("ours_test"));
+  // The shapes file: every person's shapes, and per-scan errors whose held-out mean is the table's.
+  {
+    const io::H5File f = io::H5File::OpenRead(shapes);
+    io::Shape shape;
+    f.Read<float>("/shapes/ours/deltas", {}, &shape);
+    ASSERT_EQ(shape.size(), 4u);
+    EXPECT_EQ(shape[0], 5);
+    EXPECT_EQ(shape[1], 55);
+    const std::vector<float> errors = f.Read<float>("/errors/ours", {}, &shape);
+    const std::vector<int32_t> split = f.ReadVector<int32_t>("/errors/split");
+    ASSERT_EQ(shape[0], 5);
+    double sum = 0;
+    int count = 0;
+    for (int j = 0; j < 5; ++j) {
+      for (int64_t k = 0; k < shape[1] && split[j] == 1; ++k, ++count) sum += errors[j * shape[1] + k];
+    }
+    ASSERT_GT(count, 0);
+    EXPECT_NEAR(sum / count, number("ours_test"), 1e-3);
+  }
   // One neutral mesh to a rig.
   const io::H5File scans = io::H5File::OpenRead(Scans());
   const rig::Rig tmpl = io::ReadRig(scans, "/template");
