@@ -3,9 +3,12 @@
 // and example-based rigging (paper 001 Table 2).
 //
 // bsgen.h5: /template (rig.h5 layout: S_0 and the template shapes S_i), /model/parameters
-// (the networks' parameters, attributes: image_size, channels, residual_blocks, input_scale,
-// expression_scale), /checkpoint/state while training (parameters, Adam moments, steps).
+// (the networks' parameters, attributes: image_size, channels, residual_blocks, head_width,
+// head_frame, amplitude_width, input_scale, expression_scale), /checkpoint/state while training
+// (parameters, Adam moments, steps).
 // baselines.h5: /baselines/template/deltas and /baselines/example_based/deltas [P, N, V, 3].
+// eval --shapes: /shapes/ours/deltas, /shapes/ours_estimation/deltas [P, N, V, 3] (cm),
+// /errors/<method> [P, K] (mm, per scan), /errors/split [P].
 #include <chrono>
 #include <cmath>
 #include <csignal>
