@@ -361,11 +361,21 @@ Regions ReadRegions(const io::H5File& f) {
   return r;
 }
 
+// The regions as the contour module's palette (label names.size(): the black background).
+contour::Palette PaletteOf(const Regions& regions) {
+  contour::Palette palette;
+  palette.names = regions.names;
+  for (int r = 0; r < regions.colors.rows(); ++r) {
+    palette.colors.push_back({regions.colors(r, 0), regions.colors(r, 1), regions.colors(r, 2)});
+  }
+  return palette;
+}
+
 // The palette term's colours (the black background first, so that a region as black as the
 // background, the pupil, never takes its pixels; then the regions) and region weights:
-// (f_k)^-1/2 for a class covering the fraction f_k of the A targets' pixels (counted over every
-// rank's shard, so the same for any number of ranks), scaled so that the mean pixel weight is
-// 1, at most 20.
+// (f_k)^-1/2 for a class covering the fraction f_k of the A targets' pixels (classified as
+// contour::ClassifyPixels does; counted over every rank's shard, so the same for any number of
+// ranks), scaled so that the mean pixel weight is 1, at most 20.
 struct PaletteWeights {
   std::vector<float> colors, weights;
   std::string summary;
@@ -374,27 +384,18 @@ struct PaletteWeights {
 PaletteWeights RegionWeights(const Regions& regions, const std::vector<const ImageShard*>& shards,
                              const dist::Comm& comm) {
   PaletteWeights out;
-  const int K = static_cast<int>(regions.names.size()) + 1;
+  const contour::Palette palette = PaletteOf(regions);
+  const int K = palette.num_labels();
+  // Class k of the term: 0 the background, 1 + r region r.
+  auto term_class = [&](int label) { return label == palette.background() ? 0 : label + 1; };
   out.colors = {0.f, 0.f, 0.f};
-  for (int r = 0; r + 1 < K; ++r) {
-    for (int c = 0; c < 3; ++c) out.colors.push_back(regions.colors(r, c));
-  }
+  for (const auto& c : palette.colors) out.colors.insert(out.colors.end(), c.begin(), c.end());
   std::vector<double> counts(K, 0.0);
   for (const ImageShard* shard : shards) {
-    const int64_t pixels = shard->count() * shard->size * shard->size;
-    for (int64_t p = 0; p < pixels; ++p) {
-      const uint8_t* rgb = shard->pixels.data() + 3 * p;
-      int best = 0;
-      float best_distance = 1e30f;
-      for (int k = 0; k < K; ++k) {
-        float d = 0;
-        for (int c = 0; c < 3; ++c) {
-          const float e = rgb[c] / 255.f - out.colors[3 * k + c];
-          d += e * e;
-        }
-        if (d < best_distance) { best_distance = d; best = k; }
-      }
-      counts[best] += 1;
+    Image8 image(shard->size, shard->size, 3);
+    for (int64_t i = 0; i < shard->count(); ++i) {
+      std::copy(shard->image(i), shard->image(i) + image.data.size(), image.data.begin());
+      for (int16_t label : contour::ClassifyPixels(image, palette)) counts[term_class(label)] += 1;
     }
   }
   comm.SumReduce(counts.data(), K);
@@ -412,7 +413,6 @@ PaletteWeights RegionWeights(const Regions& regions, const std::vector<const Ima
   }
   return out;
 }
-
 
 void WriteRegions(io::H5File* f, const Regions& r) {
   if (r.names.empty()) return;
@@ -775,11 +775,7 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
     if (o.contours && regions.names.empty()) {
       FC_WARN("deepfake infer: {} holds no /regions; no contours", o.model);
     } else if (o.contours) {
-      contour::Palette palette;
-      palette.names = regions.names;
-      for (int r = 0; r < regions.colors.rows(); ++r) {
-        palette.colors.push_back({regions.colors(r, 0), regions.colors(r, 1), regions.colors(r, 2)});
-      }
+      const contour::Palette palette = PaletteOf(regions);
       contour::BorderOptions border_options;
       border_options.min_points = o.contour_min_points;
       std::vector<int32_t> table;  // frame, region, neighbor, closed, first point, point count
