@@ -115,8 +115,10 @@ struct TemplateHeadImpl : torch::nn::Module {
     direction = (pair_deltas / magnitude).contiguous();                                          // [P, 3]
     motion = torch::cat({pair_deltas, magnitude}, -1).div(sigma).contiguous();                  // [P, 4]
   }
-  // features [B, A, F] (decoder features and input at each chart vertex) -> offsets [B, S, A, 3].
-  torch::Tensor forward(const torch::Tensor& features) {
+  // features [B, A, F] (decoder features and input at each chart vertex) -> offsets [B, S, A, 3]:
+  // the free part |S_i(x)| out(x) and the part along the motion, gain S_i(x) (undefined
+  // without the frame).
+  std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& features) {
     torch::Tensor hidden = from_features->forward(features).index_select(1, pair_vertex) +
                            from_motion->forward(motion).unsqueeze(0);  // [B, P, width]
     if (frame) {
@@ -124,11 +126,12 @@ struct TemplateHeadImpl : torch::nn::Module {
       hidden = hidden + from_along->forward((d * direction).sum(-1, true));
     }
     const torch::Tensor out = output->forward(torch::relu(hidden));
-    torch::Tensor values = out.narrow(2, 0, 3) * magnitude;  // [B, P, 3]
-    if (frame) values = values + out.narrow(2, 3, 1) * pair_deltas;
     const int64_t B = features.size(0);
-    return torch::zeros({B, shapes * vertices, 3}, values.options()).index_add(1, pairs, values)
-        .reshape({B, shapes, vertices, 3});
+    auto scatter = [&](const torch::Tensor& values) {  // [B, P, 3] -> [B, S, A, 3]
+      return torch::zeros({B, shapes * vertices, 3}, values.options()).index_add(1, pairs, values)
+          .reshape({B, shapes, vertices, 3});
+    };
+    return {scatter(out.narrow(2, 0, 3) * magnitude), frame ? scatter(out.narrow(2, 3, 1) * pair_deltas) : torch::Tensor()};
   }
   int64_t shapes, vertices;
   bool frame;
@@ -220,16 +223,22 @@ struct GeneratorImpl : torch::nn::Module {
   }
   bool HasHeads() const { return !heads[0].is_empty() || !heads[1].is_empty(); }
   // The heads' offsets [B, N, A, 3] (shape order) from the features [B, F, A] and the input
-  // [B, C, A] sampled at the chart vertices.
-  torch::Tensor HeadOffsets(const torch::Tensor& sampled, const torch::Tensor& sampled_input) {
-    std::vector<torch::Tensor> parts;
+  // [B, C, A] sampled at the chart vertices: free and along the motion (undefined without the
+  // frame).
+  std::pair<torch::Tensor, torch::Tensor> HeadOffsets(const torch::Tensor& sampled, const torch::Tensor& sampled_input) {
+    std::vector<torch::Tensor> free, along;
     int64_t first = 0;
     for (TemplateHead& head : heads) {
       if (head.is_empty()) continue;
-      parts.push_back(head->forward(torch::cat({sampled.narrow(1, first, channels), sampled_input}, 1).transpose(1, 2)));
+      auto [f, a] = head->forward(torch::cat({sampled.narrow(1, first, channels), sampled_input}, 1).transpose(1, 2));
+      free.push_back(f);
+      if (a.defined()) along.push_back(a);
       first += channels;
     }
-    return torch::cat(parts, 1).index_select(1, shape_permutation);
+    auto order = [&](const std::vector<torch::Tensor>& parts) {
+      return parts.size() == free.size() ? torch::cat(parts, 1).index_select(1, shape_permutation) : torch::Tensor();
+    };
+    return {order(free), order(along)};
   }
   int channels;
   Encoder encoder{nullptr};
@@ -509,8 +518,10 @@ struct FastHeads {
     }
   }
   // features: the generator's sampled features [F, A]; input: its sampled input [C, A] (both
-  // row-major); adds the heads' offsets to out, [N, A, 3].
-  void Add(const float* features, const float* input, int64_t input_channels, int64_t A, float* out) const {
+  // row-major); adds the heads' free offsets to out and those along the motion to along (both
+  // [N, A, 3]; along may be out).
+  void Add(const float* features, const float* input, int64_t input_channels, int64_t A, float* out,
+           float* along_out) const {
     for (const Head& h : heads) {
       RowMajor x(channels + input_channels, A);
       x.topRows(channels) = Eigen::Map<const RowMajor>(features + h.first_feature * A, channels, A);
@@ -529,7 +540,11 @@ struct FastHeads {
         o.noalias() = h.output * hidden;
         o += h.output_bias;
         float* y = out + (h.shape[p] * A + v) * 3;
-        for (int c = 0; c < 3; ++c) y[c] += o[c] * h.magnitude[p] + (h.frame ? o[3] * h.deltas(c, p) : 0.f);
+        for (int c = 0; c < 3; ++c) y[c] += o[c] * h.magnitude[p];
+        if (h.frame) {
+          float* z = along_out + (h.shape[p] * A + v) * 3;
+          for (int c = 0; c < 3; ++c) z[c] += o[3] * h.deltas(c, p);
+        }
       }
     }
   }
@@ -545,6 +560,7 @@ bool BlendshapeNetOptions::Check(std::string* why) const {
   if (!(learning_rate > 0.f && learning_rate < 1.f)) { *why = "learning_rate must be in (0, 1)"; return false; }
   if (!(reg_weight >= 0.f)) { *why = "reg_weight must be >= 0"; return false; }
   if (!(tuning_reg_weight >= 0.f)) { *why = "tuning_reg_weight must be >= 0"; return false; }
+  if (!(amplitude_decay >= 0.f)) { *why = "amplitude_decay must be >= 0"; return false; }
   return true;
 }
 
@@ -581,20 +597,33 @@ struct BlendshapeGenerator::Impl {
     return (flat.reshape({B, C, A(), 4}) * sample_weights).sum(-1);
   }
   // A generator's offsets Delta S_i at the chart vertices, [B, N, A, 3]: its output image
-  // sampled, plus its heads' offsets.
-  torch::Tensor Offsets(Generator& g, const GeneratorOutput& out) {
+  // sampled plus its heads' free offsets, and its heads' offsets along the template motion
+  // (undefined without frame heads).
+  struct OffsetParts {
+    torch::Tensor free, along;
+  };
+  OffsetParts Offsets(Generator& g, const GeneratorOutput& out) {
     const torch::Tensor linear = SampleChannels(out.image).reshape({out.image.size(0), N(), 3, A()}).permute({0, 1, 3, 2});
-    if (!g->HasHeads()) return linear;
-    return linear + g->HeadOffsets(SampleChannels(out.features), SampleChannels(out.input));
+    if (!g->HasHeads()) return {linear, torch::Tensor()};
+    auto [free, along] = g->HeadOffsets(SampleChannels(out.features), SampleChannels(out.input));
+    return {linear + free, along};
   }
   // The Estimation generator's per-shape amplitude a [B, N] (zeros without one).
   torch::Tensor AmplitudeOf(const torch::Tensor& input) {
     if (generator->amplitude.is_empty()) return torch::zeros({input.size(0), N()}, input.options());
     return generator->amplitude->forward(input);
   }
-  // offsets [B, N, A, 3] -> (1 + a_i)(S_i + offsets_i) - S_i.
-  torch::Tensor Amplified(const torch::Tensor& offsets, const torch::Tensor& amplitude) const {
-    return offsets + amplitude.unsqueeze(-1).unsqueeze(-1) * (template_deltas + offsets);
+  // The offsets with the amplitude a [B, N] applied to what it scales: all of them, or with
+  // amplitude_on_path only those along the template motion. Amplified adds a_i S_i: the
+  // shapes are then (1 + a_i)(S_i + offsets_i), or (1 + a_i)(S_i + along_i) + free_i.
+  torch::Tensor Scaled(const OffsetParts& parts, const torch::Tensor& amplitude) const {
+    const torch::Tensor a = amplitude.unsqueeze(-1).unsqueeze(-1);
+    const torch::Tensor all = parts.along.defined() ? parts.free + parts.along : parts.free;
+    if (!options.amplitude_on_path) return all * (1.f + a);
+    return parts.along.defined() ? all + a * parts.along : all;
+  }
+  torch::Tensor Amplified(const OffsetParts& parts, const torch::Tensor& amplitude) const {
+    return Scaled(parts, amplitude) + amplitude.unsqueeze(-1).unsqueeze(-1) * template_deltas;
   }
   // The Tuning generator sees the neutral and the initial blendshapes through the Estimation
   // decoders' last features (the offsets are computed from them), compressed to c channels.
@@ -750,9 +779,8 @@ double BlendshapeGenerator::Backward(const std::vector<const BlendshapePerson*>&
       initial = m.Amplified(m.Offsets(m.generator, estimation), amplitude);
     }
     // The Tuning generator's output joins the Estimation offsets before the amplitude:
-    // (1 + a)(S + E + T) - S = Delta S_i + (1 + a) T.
-    const torch::Tensor residual = m.Offsets(m.tuning, m.TuningForward(input, estimation)) *
-                                   (1.f + amplitude).unsqueeze(-1).unsqueeze(-1);
+    // (1 + a)(S + E + T) - S = Delta S_i + (1 + a) T (on the path only: T's along part scaled).
+    const torch::Tensor residual = m.Scaled(m.Offsets(m.tuning, m.TuningForward(input, estimation)), amplitude);
     offsets = initial + residual;                                          // Delta S_i_FT (skip)
     const torch::Tensor images =
         m.WithStatic(torch::from_blob(expression_images.data(), {B * K, 3, H, H}, f32));
@@ -765,7 +793,13 @@ double BlendshapeGenerator::Backward(const std::vector<const BlendshapePerson*>&
   // L_rec (eq. 2): per-vertex L1, mean over scans and vertices.
   const torch::Tensor rec = (rebuilt - target).abs().reshape({B, K, A, 3}).sum(-1).mean({1, 2});
   const float omega = stage == TrainingStage::kEstimation ? m.options.reg_weight : m.options.tuning_reg_weight;
-  const torch::Tensor loss = (rec + omega * regularization).sum() * loss_scale;
+  torch::Tensor loss = (rec + omega * regularization).sum() * loss_scale;
+  if (stage == TrainingStage::kEstimation && m.options.amplitude_decay > 0.f && !m.generator->amplitude.is_empty()) {
+    // The ridge term once per step over the global batch: this share's part, B / global batch.
+    const Amplitude& amp = m.generator->amplitude;
+    const torch::Tensor ridge = amp->hidden->weight.square().sum() + amp->output->weight.square().sum();
+    loss = loss + ridge * (m.options.amplitude_decay * static_cast<float>(B) * loss_scale);
+  }
   loss.backward();
   int64_t offset = 0;
   for (auto& p : m.parameters) {
@@ -914,23 +948,34 @@ std::vector<float> BlendshapeGenerator::PredictOffsets(const std::vector<float>&
       for (int64_t k = 0; k < A; ++k) o[3 * k] = channel[k];
     }
   }
-  // The heads, on the same samples of the features.
+  // The heads, on the same samples of the features; their offsets along the template motion
+  // apart when the amplitude scales only those.
+  const bool on_path = m.options.amplitude_on_path && !m.generator->amplitude.is_empty();
+  std::vector<float> along_path(on_path ? out.size() : 0, 0.f);
+  float* along = on_path ? along_path.data() : out.data();
   if (!f.generator_heads->heads.empty()) {
     const torch::Tensor samples = m.SampleChannels(input).contiguous();
-    f.generator_heads->Add(sampled.data_ptr<float>(), samples.data_ptr<float>(), samples.size(1), A, out.data());
+    f.generator_heads->Add(sampled.data_ptr<float>(), samples.data_ptr<float>(), samples.size(1), A, out.data(), along);
   }
   if (tuned && !f.tuning_heads->heads.empty()) {
     const torch::Tensor samples = m.SampleChannels(tuning_input).contiguous();
     f.tuning_heads->Add(sampled.data_ptr<float>() + (fg + 1) * A, samples.data_ptr<float>(), samples.size(1), A,
-                        out.data());
+                        out.data(), along);
   }
-  // The amplitude: out_i = (1 + a_i)(S_i + out_i) - S_i.
+  // The amplitude: out_i = (1 + a_i)(S_i + out_i) - S_i, or with amplitude_on_path
+  // out_i = free_i + (1 + a_i)(S_i + along_i) - S_i.
   if (!m.generator->amplitude.is_empty()) {
     const torch::Tensor a = m.generator->amplitude->forward(input).contiguous();
     const float* amplitude = a.data_ptr<float>();
     const float* S = m.geometry->template_deltas.data();
     for (int64_t i = 0; i < N; ++i) {
-      for (int64_t j = i * A * 3; j < (i + 1) * A * 3; ++j) out[j] += amplitude[i] * (S[j] + out[j]);
+      for (int64_t j = i * A * 3; j < (i + 1) * A * 3; ++j) {
+        if (on_path) {
+          out[j] += along_path[j] + amplitude[i] * (S[j] + along_path[j]);
+        } else {
+          out[j] += amplitude[i] * (S[j] + out[j]);
+        }
+      }
     }
   }
   return out;
@@ -952,9 +997,10 @@ std::vector<float> BlendshapeGenerator::PredictOffsetsWithModules(const std::vec
   const torch::Tensor input = m.WithStatic(torch::from_blob(const_cast<float*>(neutral_image.data()),
                                                             {1, 3, H, H}, torch::kFloat32));
   const GeneratorOutput estimation = m.generator->forward(input);
-  torch::Tensor offsets = m.Offsets(m.generator, estimation);
-  if (tuned) offsets = offsets + m.Offsets(m.tuning, m.TuningForward(input, estimation));
-  offsets = m.Amplified(offsets, m.AmplitudeOf(input)).contiguous();
+  const torch::Tensor amplitude = m.AmplitudeOf(input);
+  torch::Tensor offsets = m.Amplified(m.Offsets(m.generator, estimation), amplitude);
+  if (tuned) offsets = offsets + m.Scaled(m.Offsets(m.tuning, m.TuningForward(input, estimation)), amplitude);
+  offsets = offsets.contiguous();
   return std::vector<float>(offsets.data_ptr<float>(), offsets.data_ptr<float>() + offsets.numel());
 }
 

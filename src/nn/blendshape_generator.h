@@ -28,9 +28,11 @@ struct BlendshapeNetOptions {
   int head_width = 32;            // hidden units of the template-conditioned heads (0: none)
   bool head_frame = true;         // heads also in the frame of the template motion (see the .cpp)
   int amplitude_width = 32;       // hidden units of the per-shape amplitude from the whole neutral (0: none)
+  bool amplitude_on_path = true;  // the amplitude scales the motion along the template path only
   float learning_rate = 2e-3f;    // Adam step size
   float reg_weight = 1.f;         // omega_reg of L_G = L_rec + omega_reg L_reg (eq. 7)
   float tuning_reg_weight = 0.1f; // omega_reg_FT of L_G_FT (eq. 9)
+  float amplitude_decay = 0.f;    // lambda of the ridge term lambda |W|^2 on the amplitude's weights
   int seed = 1;                   // parameter initialization seed
 
   template <class V>
@@ -40,9 +42,11 @@ struct BlendshapeNetOptions {
     v("head_width", head_width, "hidden units of the output head that conditions each shape's offsets on its template motion (0: 1x1 output convolutions only)");
     v("head_frame", head_frame, "the heads also see the neutral's displacement along each shape's template motion and output a gain on that motion");
     v("amplitude_width", amplitude_width, "hidden units of the per-shape amplitude a_i predicted from the whole neutral, S_i^j = (1 + a_i)(S_i + Delta S_i) (0: none)");
+    v("amplitude_on_path", amplitude_on_path, "the amplitude scales only the motion along the template path, (1 + a_i)(S_i + gain S_i), not the heads' free offsets (off: all of S_i + Delta S_i)");
     v("learning_rate", learning_rate, "Adam step size");
     v("reg_weight", reg_weight, "omega_reg: weight of L_reg in the Estimation Stage (eq. 7)");
     v("tuning_reg_weight", tuning_reg_weight, "omega_reg_FT: weight of L_reg_FT in the Tuning Stage (eq. 9)");
+    v("amplitude_decay", amplitude_decay, "ridge penalty lambda |W|^2 on the amplitude network's weight matrices (its few training people fit it by heart without one)");
     v("net_seed", seed, "parameter initialization seed");
   }
   bool Check(std::string* why) const;

@@ -80,14 +80,17 @@ double RelativeDifference(const std::vector<float>& fast, const std::vector<floa
 
 constexpr double kTolerance = 1e-5;
 
-// (Also for the networks of older models: heads without the motion frame, no amplitude.)
+// (Also for the networks of older models: the amplitude on all offsets, heads without the
+// motion frame, no amplitude.)
 TEST(BlendshapeGenerator, InferenceFormMatchesTheModulesWithAndWithoutTuning) {
-  struct Case { int shapes; std::vector<int> large; bool frame; int amplitude; };
-  for (const Case& c : {Case{20, {3, 7, 1, 12, 18}, true, 32}, Case{9, {0, 1, 2, 3, 4, 5, 6, 7}, true, 8},
-                        Case{20, {3, 7, 1, 12, 18}, false, 0}}) {
+  struct Case { int shapes; std::vector<int> large; bool frame; int amplitude; bool on_path; };
+  for (const Case& c : {Case{20, {3, 7, 1, 12, 18}, true, 32, true}, Case{9, {0, 1, 2, 3, 4, 5, 6, 7}, true, 8, true},
+                        Case{20, {3, 7, 1, 12, 18}, true, 32, false}, Case{20, {3, 7, 1, 12, 18}, false, 16, true},
+                        Case{20, {3, 7, 1, 12, 18}, false, 0, false}}) {
     BlendshapeNetOptions options = SmallNetwork();
     options.head_frame = c.frame;
     options.amplitude_width = c.amplitude;
+    options.amplitude_on_path = c.on_path;
     BlendshapeGenerator model(options, RandomGeometry(c.shapes, c.large, 37, c.shapes));
     Perturb(&model, 5);
     for (uint64_t seed : {1, 2}) {
@@ -96,7 +99,8 @@ TEST(BlendshapeGenerator, InferenceFormMatchesTheModulesWithAndWithoutTuning) {
         const std::vector<float> fast = model.PredictOffsets(image, tuned);
         ASSERT_EQ(fast.size(), static_cast<size_t>(c.shapes) * 37 * 3);
         EXPECT_LT(RelativeDifference(fast, model.PredictOffsetsWithModules(image, tuned)), kTolerance)
-            << c.shapes << " shapes, frame " << c.frame << ", amplitude " << c.amplitude << ", tuned " << tuned;
+            << c.shapes << " shapes, frame " << c.frame << ", amplitude " << c.amplitude << ", on path " << c.on_path
+            << ", tuned " << tuned;
       }
     }
   }
@@ -141,6 +145,45 @@ TEST(BlendshapeGenerator, InferenceFormFollowsParameterChanges) {
   Perturb(&other, 6);
   model.SetParameters(other.Parameters());
   EXPECT_LT(RelativeDifference(model.PredictOffsets(image, true), before), kTolerance);
+}
+
+// A person with random geometry for a geometry of `shapes` shapes on `vertices` vertices.
+BlendshapePerson RandomPerson(int shapes, int vertices, uint64_t seed) {
+  Rng rng(seed, 4);
+  BlendshapePerson p;
+  p.num_expressions = 2;
+  p.neutral_image = RandomImage(seed);
+  for (int i = 0; i < vertices * 3; ++i) p.neutral.push_back(static_cast<float>(rng.Normal()));
+  for (int i = 0; i < 2 * vertices * 3; ++i) p.expressions.push_back(static_cast<float>(rng.Normal()));
+  for (int i = 0; i < 2 * 3 * kSize * kSize; ++i) p.expression_images.push_back(static_cast<float>(rng.Normal()));
+  for (int i = 0; i < 2 * shapes; ++i) p.nominal_weights.push_back(i % 3 == 0 ? 0.9f : 0.f);
+  return p;
+}
+
+// Ranks each run Backward on their share of the batch with loss_scale 1 / (global batch) and
+// sum the gradients: the shares' gradients must add up to the whole batch's, the amplitude's
+// ridge term (amplitude_decay) counted once, not once per share.
+TEST(BlendshapeGenerator, SharesOfABatchSumToTheWholeGradientWithTheRidgeTerm) {
+  BlendshapeNetOptions options = SmallNetwork();
+  options.amplitude_decay = 0.5f;
+  BlendshapeGenerator model(options, RandomGeometry(12, {2, 5, 9}, 25, 4));
+  Perturb(&model, 12);
+  const BlendshapePerson a = RandomPerson(12, 25, 1), b = RandomPerson(12, 25, 2), c = RandomPerson(12, 25, 3);
+  const int64_t n = model.NumParameters();
+  model.Backward({&a, &b, &c}, TrainingStage::kEstimation, 1.f / 3);
+  const std::vector<float> whole(model.GradientBuffer(), model.GradientBuffer() + n);
+  model.Backward({&a}, TrainingStage::kEstimation, 1.f / 3);
+  std::vector<float> summed(model.GradientBuffer(), model.GradientBuffer() + n);
+  model.Backward({&b, &c}, TrainingStage::kEstimation, 1.f / 3);
+  for (int64_t i = 0; i < n; ++i) summed[i] += model.GradientBuffer()[i];
+  EXPECT_LT(RelativeDifference(summed, whole), 1e-5);
+  // The ridge term is in the gradient: without it the amplitude's gradient differs.
+  options.amplitude_decay = 0.f;
+  BlendshapeGenerator plain(options, RandomGeometry(12, {2, 5, 9}, 25, 4));
+  plain.SetParameters(model.Parameters());
+  plain.Backward({&a, &b, &c}, TrainingStage::kEstimation, 1.f / 3);
+  const std::vector<float> without(plain.GradientBuffer(), plain.GradientBuffer() + n);
+  EXPECT_GT(RelativeDifference(without, whole), 1e-3);
 }
 
 TEST(BlendshapeGenerator, InferenceFromSeveralThreadsMatchesOneThread) {
