@@ -37,7 +37,7 @@ SlurmdUser=${user}
 SlurmctldPort=$(_free_port)
 SlurmdPort=$(_free_port)
 AuthType=auth/munge
-AuthInfo=socket=$dir/munge/munge.sock
+AuthInfo=socket=$dir/munge/munge.sock,cred_expire=10
 CredType=cred/munge
 StateSaveLocation=$dir/state
 SlurmdSpoolDir=$dir/spool
