@@ -144,9 +144,11 @@ TORCH_MODULE(TemplateHead);
 
 // Per-shape amplitude from the whole neutral: the neutral's displacement image averaged to
 // 16 x 16, one tanh layer and a linear layer to one number a_i per shape, which scales the
-// shape: S_i^j = (1 + a_i)(S_i + Delta S_i). How strongly a person performs a shape as a whole
-// depends on their identity everywhere on the face (in the synthetic database, the factor g_i
-// of a global identity projection), which the convolutions' local receptive fields cannot see.
+// shape's motion along the template's path: S_i^j = (1 + a_i)(S_i + gain_i S_i) + free_i with
+// amplitude_on_path (the heads' gain part; free: their other offsets and the 1x1 output), else
+// S_i^j = (1 + a_i)(S_i + Delta S_i). How strongly a person performs a shape as a whole depends
+// on their identity everywhere on the face (in the synthetic database, the factor g_i of a
+// global identity projection), which the convolutions' local receptive fields cannot see.
 // The output layer starts at zero (a = 0).
 struct AmplitudeImpl : torch::nn::Module {
   static constexpr int kGrid = 16;

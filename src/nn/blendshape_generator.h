@@ -41,7 +41,7 @@ struct BlendshapeNetOptions {
     v("residual_blocks", residual_blocks, "encoder residual blocks at quarter resolution");
     v("head_width", head_width, "hidden units of the output head that conditions each shape's offsets on its template motion (0: 1x1 output convolutions only)");
     v("head_frame", head_frame, "the heads also see the neutral's displacement along each shape's template motion and output a gain on that motion");
-    v("amplitude_width", amplitude_width, "hidden units of the per-shape amplitude a_i predicted from the whole neutral, S_i^j = (1 + a_i)(S_i + Delta S_i) (0: none)");
+    v("amplitude_width", amplitude_width, "hidden units of the per-shape amplitude a_i predicted from the whole neutral, which scales how far the person moves along each shape (0: none)");
     v("amplitude_on_path", amplitude_on_path, "the amplitude scales only the motion along the template path, (1 + a_i)(S_i + gain S_i), not the heads' free offsets (off: all of S_i + Delta S_i)");
     v("learning_rate", learning_rate, "Adam step size");
     v("reg_weight", reg_weight, "omega_reg: weight of L_reg in the Estimation Stage (eq. 7)");
