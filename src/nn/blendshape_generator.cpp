@@ -970,13 +970,10 @@ std::vector<float> BlendshapeGenerator::PredictOffsets(const std::vector<float>&
     const torch::Tensor a = m.generator->amplitude->forward(input).contiguous();
     const float* amplitude = a.data_ptr<float>();
     const float* S = m.geometry->template_deltas.data();
+    const float* scaled = on_path ? along_path.data() : out.data();  // what a_i multiplies
     for (int64_t i = 0; i < N; ++i) {
       for (int64_t j = i * A * 3; j < (i + 1) * A * 3; ++j) {
-        if (on_path) {
-          out[j] += along_path[j] + amplitude[i] * (S[j] + along_path[j]);
-        } else {
-          out[j] += amplitude[i] * (S[j] + out[j]);
-        }
+        out[j] += (on_path ? along_path[j] : 0.f) + amplitude[i] * (S[j] + scaled[j]);
       }
     }
   }

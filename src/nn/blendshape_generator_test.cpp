@@ -78,6 +78,19 @@ double RelativeDifference(const std::vector<float>& fast, const std::vector<floa
   return diff / scale;
 }
 
+// A person with random geometry for a geometry of `shapes` shapes on `vertices` vertices.
+BlendshapePerson RandomPerson(int shapes, int vertices, uint64_t seed) {
+  Rng rng(seed, 4);
+  BlendshapePerson p;
+  p.num_expressions = 2;
+  p.neutral_image = RandomImage(seed);
+  for (int i = 0; i < vertices * 3; ++i) p.neutral.push_back(static_cast<float>(rng.Normal()));
+  for (int i = 0; i < 2 * vertices * 3; ++i) p.expressions.push_back(static_cast<float>(rng.Normal()));
+  for (int i = 0; i < 2 * 3 * kSize * kSize; ++i) p.expression_images.push_back(static_cast<float>(rng.Normal()));
+  for (int i = 0; i < 2 * shapes; ++i) p.nominal_weights.push_back(i % 3 == 0 ? 0.9f : 0.f);
+  return p;
+}
+
 constexpr double kTolerance = 1e-5;
 
 // (Also for the networks of older models: the amplitude on all offsets, heads without the
@@ -125,14 +138,7 @@ TEST(BlendshapeGenerator, InferenceFormFollowsParameterChanges) {
   const std::vector<float> image = RandomImage(3);
   const std::vector<float> before = model.PredictOffsets(image, true);
   // A training step (Backward + OptimizerStep) changes the parameters in place.
-  BlendshapePerson person;
-  person.num_expressions = 2;
-  person.neutral_image = image;
-  Rng rng(4, 0);
-  for (int i = 0; i < 25 * 3; ++i) person.neutral.push_back(static_cast<float>(rng.Normal()));
-  for (int i = 0; i < 2 * 25 * 3; ++i) person.expressions.push_back(static_cast<float>(rng.Normal()));
-  for (int i = 0; i < 2 * 3 * kSize * kSize; ++i) person.expression_images.push_back(static_cast<float>(rng.Normal()));
-  for (int i = 0; i < 2 * 12; ++i) person.nominal_weights.push_back(i % 3 == 0 ? 1.f : 0.f);
+  const BlendshapePerson person = RandomPerson(12, 25, 3);
   for (TrainingStage stage : {TrainingStage::kEstimation, TrainingStage::kTuning}) {
     model.Backward({&person}, stage, 1.f);
     model.OptimizerStep(stage);
@@ -145,19 +151,6 @@ TEST(BlendshapeGenerator, InferenceFormFollowsParameterChanges) {
   Perturb(&other, 6);
   model.SetParameters(other.Parameters());
   EXPECT_LT(RelativeDifference(model.PredictOffsets(image, true), before), kTolerance);
-}
-
-// A person with random geometry for a geometry of `shapes` shapes on `vertices` vertices.
-BlendshapePerson RandomPerson(int shapes, int vertices, uint64_t seed) {
-  Rng rng(seed, 4);
-  BlendshapePerson p;
-  p.num_expressions = 2;
-  p.neutral_image = RandomImage(seed);
-  for (int i = 0; i < vertices * 3; ++i) p.neutral.push_back(static_cast<float>(rng.Normal()));
-  for (int i = 0; i < 2 * vertices * 3; ++i) p.expressions.push_back(static_cast<float>(rng.Normal()));
-  for (int i = 0; i < 2 * 3 * kSize * kSize; ++i) p.expression_images.push_back(static_cast<float>(rng.Normal()));
-  for (int i = 0; i < 2 * shapes; ++i) p.nominal_weights.push_back(i % 3 == 0 ? 0.9f : 0.f);
-  return p;
 }
 
 // Ranks each run Backward on their share of the batch with loss_scale 1 / (global batch) and
