@@ -93,16 +93,19 @@ TORCH_MODULE(Decoder);
 // sees the neutral's displacement along the motion, d(x) . S_i(x) / |S_i(x)| (a product that
 // a ReLU layer only approximates), and a fourth output is a gain on the template motion
 // itself, adding gain S_i(x) (a person moving a point further or less along the same path).
+// depth 2 adds a second hidden layer of the same width: one ReLU layer leaves jawOpen's
+// personal pattern a few percent of its motion off even on the training people.
 struct TemplateHeadImpl : torch::nn::Module {
   // deltas: the branch's template motion S_i(x), [S, A, 3]; sigma: the RMS template motion;
   // displacement: the first of the 3 feature columns that hold the neutral's displacement.
-  TemplateHeadImpl(int features, int width, const torch::Tensor& deltas, double sigma, bool frame,
+  TemplateHeadImpl(int features, int width, int depth, const torch::Tensor& deltas, double sigma, bool frame,
                    int64_t displacement)
       : shapes(deltas.size(0)), vertices(deltas.size(1)), frame(frame), displacement(displacement) {
     from_features = register_module("features", torch::nn::Linear(features, width));
     from_motion = register_module("motion", torch::nn::Linear(torch::nn::LinearOptions(4, width).bias(false)));
     output = register_module("output", torch::nn::Linear(width, frame ? 4 : 3));
     if (frame) from_along = register_module("along", torch::nn::Linear(torch::nn::LinearOptions(1, width).bias(false)));
+    if (depth > 1) second = register_module("second", torch::nn::Linear(width, width));
     torch::NoGradGuard no_grad;
     output->weight.zero_();
     output->bias.zero_();
@@ -125,7 +128,9 @@ struct TemplateHeadImpl : torch::nn::Module {
       const torch::Tensor d = features.narrow(2, displacement, 3).index_select(1, pair_vertex);  // [B, P, 3]
       hidden = hidden + from_along->forward((d * direction).sum(-1, true));
     }
-    const torch::Tensor out = output->forward(torch::relu(hidden));
+    hidden = torch::relu(hidden);
+    if (!second.is_empty()) hidden = torch::relu(second->forward(hidden));
+    const torch::Tensor out = output->forward(hidden);
     const int64_t B = features.size(0);
     auto scatter = [&](const torch::Tensor& values) {  // [B, P, 3] -> [B, S, A, 3]
       return torch::zeros({B, shapes * vertices, 3}, values.options()).index_add(1, pairs, values)
@@ -139,6 +144,7 @@ struct TemplateHeadImpl : torch::nn::Module {
   // The moving pairs s A + x, their x, S_s(x), |S_s(x)|, S_s(x) / |S_s(x)|, the motion input.
   torch::Tensor pairs, pair_vertex, pair_deltas, magnitude, direction, motion;
   torch::nn::Linear from_features{nullptr}, from_motion{nullptr}, output{nullptr}, from_along{nullptr};
+  torch::nn::Linear second{nullptr};  // the second hidden layer (head_depth 2)
 };
 TORCH_MODULE(TemplateHead);
 
@@ -179,7 +185,7 @@ struct GeneratorOutput {
 // template_deltas: S_i on the chart vertices, [N, A, 3].
 struct GeneratorImpl : torch::nn::Module {
   GeneratorImpl(int in, int c, int blocks, const std::vector<int>& large, int num_shapes, int head_width,
-                bool head_frame, int amplitude_width, const torch::Tensor& template_deltas)
+                int head_depth, bool head_frame, int amplitude_width, const torch::Tensor& template_deltas)
       : channels(c) {
     encoder = register_module("encoder", Encoder(in, c, blocks));
     std::vector<uint8_t> is_large(num_shapes, 0);
@@ -206,7 +212,7 @@ struct GeneratorImpl : torch::nn::Module {
         if (order.empty()) return;
         const torch::Tensor deltas = template_deltas.index_select(0, torch::tensor(order, torch::kLong));
         // The head's features: the branch's c decoder features, then the input (displacement first).
-        *head = register_module(name, TemplateHead(c + in, head_width, deltas, sigma, head_frame, c));
+        *head = register_module(name, TemplateHead(c + in, head_width, head_depth, deltas, sigma, head_frame, c));
       };
       branch(order_large, "large_head", &heads[0]);
       branch(order_small, "small_head", &heads[1]);
@@ -473,6 +479,8 @@ struct FastHeads {
     Eigen::VectorXf bias;           // [width]
     Eigen::MatrixXf motion;         // [width, P]: the motion term of each pair
     Eigen::MatrixXf output;         // [3 or 4, width]
+    Eigen::MatrixXf second;         // [width, width]: the second hidden layer (empty: none)
+    Eigen::VectorXf second_bias;
     Eigen::VectorXf output_bias;
     Eigen::VectorXf along;          // [width]: weights of d . direction (frame heads)
     Eigen::MatrixXf deltas, direction;   // [3, P]: S_i(x) and its direction (frame heads)
@@ -500,6 +508,10 @@ struct FastHeads {
       h.motion = matrix(torch::matmul(t.motion, t.from_motion->weight.detach().t()).t());
       h.output = matrix(t.output->weight);
       h.output_bias = matrix(t.output->bias.unsqueeze(1));
+      if (!t.second.is_empty()) {
+        h.second = matrix(t.second->weight);
+        h.second_bias = matrix(t.second->bias.unsqueeze(1));
+      }
       h.frame = t.frame;
       h.displacement = t.displacement;
       if (t.frame) {
@@ -529,7 +541,7 @@ struct FastHeads {
       x.topRows(channels) = Eigen::Map<const RowMajor>(features + h.first_feature * A, channels, A);
       x.bottomRows(input_channels) = Eigen::Map<const RowMajor>(input, input_channels, A);
       const Eigen::MatrixXf per_vertex = (h.from_features * x).colwise() + h.bias;  // [width, A]
-      Eigen::VectorXf hidden(per_vertex.rows()), o(h.output.rows());
+      Eigen::VectorXf hidden(per_vertex.rows()), deeper(h.second.rows()), o(h.output.rows());
       for (size_t p = 0; p < h.vertex.size(); ++p) {
         const int64_t v = h.vertex[p];
         hidden = per_vertex.col(v) + h.motion.col(p);
@@ -539,6 +551,10 @@ struct FastHeads {
           hidden += along * h.along;
         }
         hidden = hidden.cwiseMax(0.f);
+        if (h.second.size() > 0) {
+          deeper.noalias() = h.second * hidden;
+          hidden = (deeper + h.second_bias).cwiseMax(0.f);
+        }
         o.noalias() = h.output * hidden;
         o += h.output_bias;
         float* y = out + (h.shape[p] * A + v) * 3;
@@ -558,6 +574,7 @@ bool BlendshapeNetOptions::Check(std::string* why) const {
   if (channels < 2 || channels > 128) { *why = "channels must be in [2, 128]"; return false; }
   if (residual_blocks < 0 || residual_blocks > 8) { *why = "residual_blocks must be in [0, 8]"; return false; }
   if (head_width < 0 || head_width > 256) { *why = "head_width must be in [0, 256]"; return false; }
+  if (head_depth < 1 || head_depth > 2) { *why = "head_depth must be 1 or 2"; return false; }
   if (amplitude_width < 0 || amplitude_width > 256) { *why = "amplitude_width must be in [0, 256]"; return false; }
   if (!(learning_rate > 0.f && learning_rate < 1.f)) { *why = "learning_rate must be in (0, 1)"; return false; }
   if (!(reg_weight >= 0.f)) { *why = "reg_weight must be >= 0"; return false; }
@@ -706,9 +723,9 @@ BlendshapeGenerator::BlendshapeGenerator(const BlendshapeNetOptions& options,
   m.template_deltas = torch::from_blob(const_cast<float*>(g.template_deltas.data()),
                                        {g.num_shapes, g.num_chart_vertices, 3}, f32).clone();
   m.generator = Generator(in, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes, options.head_width,
-                          options.head_frame, options.amplitude_width, m.template_deltas);
+                          options.head_depth, options.head_frame, options.amplitude_width, m.template_deltas);
   m.tuning = Generator(in + c, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes, options.head_width,
-                       options.head_frame, 0, m.template_deltas);
+                       options.head_depth, options.head_frame, 0, m.template_deltas);
   const int branches = (m.generator->has_large ? 1 : 0) + (m.generator->has_small ? 1 : 0);
   m.offsets_in = Conv(branches * c, c, 1);
   m.predictor = WeightPredictor(in, c, g.num_shapes);

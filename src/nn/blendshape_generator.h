@@ -26,6 +26,7 @@ struct BlendshapeNetOptions {
   int channels = 12;              // feature channels of the first generator layer (x2, x4 deeper)
   int residual_blocks = 2;        // encoder residual blocks at 1/4 resolution
   int head_width = 32;            // hidden units of the template-conditioned heads (0: none)
+  int head_depth = 2;             // hidden layers of the heads (1 or 2; models without the attribute: 1)
   bool head_frame = true;         // heads also in the frame of the template motion (see the .cpp)
   int amplitude_width = 32;       // hidden units of the per-shape amplitude from the whole neutral (0: none)
   bool amplitude_on_path = true;  // the amplitude scales the motion along the template path only
@@ -40,6 +41,7 @@ struct BlendshapeNetOptions {
     v("channels", channels, "feature channels of the first generator layer (doubled twice deeper)");
     v("residual_blocks", residual_blocks, "encoder residual blocks at quarter resolution");
     v("head_width", head_width, "hidden units of the output head that conditions each shape's offsets on its template motion (0: 1x1 output convolutions only)");
+    v("head_depth", head_depth, "hidden layers of the heads, 1 or 2 (both head_width wide)");
     v("head_frame", head_frame, "the heads also see the neutral's displacement along each shape's template motion and output a gain on that motion");
     v("amplitude_width", amplitude_width, "hidden units of the per-shape amplitude a_i predicted from the whole neutral, which scales how far the person moves along each shape (0: none)");
     v("amplitude_on_path", amplitude_on_path, "the amplitude scales only the motion along the template path, (1 + a_i)(S_i + gain S_i), not the heads' free offsets (off: all of S_i + Delta S_i)");

@@ -93,14 +93,15 @@ BlendshapePerson RandomPerson(int shapes, int vertices, uint64_t seed) {
 
 constexpr double kTolerance = 1e-5;
 
-// (Also for the networks of older models: the amplitude on all offsets, heads without the
-// motion frame, no amplitude.)
+// (Also for the networks of older models: one hidden layer in the heads, the amplitude on all
+// offsets, heads without the motion frame, no amplitude.)
 TEST(BlendshapeGenerator, InferenceFormMatchesTheModulesWithAndWithoutTuning) {
-  struct Case { int shapes; std::vector<int> large; bool frame; int amplitude; bool on_path; };
-  for (const Case& c : {Case{20, {3, 7, 1, 12, 18}, true, 32, true}, Case{9, {0, 1, 2, 3, 4, 5, 6, 7}, true, 8, true},
-                        Case{20, {3, 7, 1, 12, 18}, true, 32, false}, Case{20, {3, 7, 1, 12, 18}, false, 16, true},
-                        Case{20, {3, 7, 1, 12, 18}, false, 0, false}}) {
+  struct Case { int shapes; std::vector<int> large; bool frame; int amplitude; bool on_path; int depth; };
+  for (const Case& c : {Case{20, {3, 7, 1, 12, 18}, true, 32, true, 2}, Case{9, {0, 1, 2, 3, 4, 5, 6, 7}, true, 8, true, 2},
+                        Case{20, {3, 7, 1, 12, 18}, true, 32, true, 1}, Case{20, {3, 7, 1, 12, 18}, true, 32, false, 1},
+                        Case{20, {3, 7, 1, 12, 18}, false, 16, true, 1}, Case{20, {3, 7, 1, 12, 18}, false, 0, false, 1}}) {
     BlendshapeNetOptions options = SmallNetwork();
+    options.head_depth = c.depth;
     options.head_frame = c.frame;
     options.amplitude_width = c.amplitude;
     options.amplitude_on_path = c.on_path;
@@ -112,7 +113,7 @@ TEST(BlendshapeGenerator, InferenceFormMatchesTheModulesWithAndWithoutTuning) {
         const std::vector<float> fast = model.PredictOffsets(image, tuned);
         ASSERT_EQ(fast.size(), static_cast<size_t>(c.shapes) * 37 * 3);
         EXPECT_LT(RelativeDifference(fast, model.PredictOffsetsWithModules(image, tuned)), kTolerance)
-            << c.shapes << " shapes, frame " << c.frame << ", amplitude " << c.amplitude << ", on path " << c.on_path
+            << c.shapes << " shapes, depth " << c.depth << ", frame " << c.frame << ", amplitude " << c.amplitude << ", on path " << c.on_path
             << ", tuned " << tuned;
       }
     }
