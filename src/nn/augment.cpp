@@ -63,7 +63,7 @@ void ResizeToFloat(const uint8_t* image, int source_size, int size, float* out) 
 }
 
 void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentOptions& o,
-                 bool jitter_colors, Rng* rng, float* input, float* target,
+                 PairKind kind, Rng* rng, float* input, float* target,
                  const uint8_t* input_image) {
   if (!input_image) input_image = image;
   // The similarity transform, in normalized coordinates centred on the image: output point
@@ -72,7 +72,9 @@ void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentO
   const float s = 1.f + static_cast<float>(rng->Uniform(-1, 1)) * o.scale;
   const float tx = static_cast<float>(rng->Uniform(-1, 1)) * o.shift * 2.f;
   const float ty = static_cast<float>(rng->Uniform(-1, 1)) * o.shift * 2.f;
-  const bool flip = o.flip && rng->Uniform() < 0.5;
+  // Only camera pairs are mirrored: a mirrored segmentation would paint the left brow, eyelids
+  // and so on in the right ones' place, teaching the decoder the wrong side.
+  const bool flip = o.flip && rng->Uniform() < 0.5 && kind == PairKind::kCamera;
   const float ca = std::cos(angle) * s, sa = std::sin(angle) * s;
   // The warp field: grid x grid random offsets (normalized units), zero on the border.
   const int grid = o.warp_grid;
@@ -88,7 +90,10 @@ void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentO
   }
   // Colour jitter: v' = ((v - 0.5) * contrast + 0.5 + brightness) * gain_c.
   float brightness = 0.f, contrast = 1.f, gain[3] = {1.f, 1.f, 1.f};
-  if (jitter_colors && o.color_jitter > 0) {
+  const bool jitter_input = kind != PairKind::kSegmentation;
+  const bool jitter_target = kind == PairKind::kCamera;
+  const bool warp_target = kind == PairKind::kPairedCamera;
+  if (jitter_input && o.color_jitter > 0) {
     brightness = static_cast<float>(rng->Uniform(-1, 1)) * o.color_jitter * 0.5f;
     contrast = 1.f + static_cast<float>(rng->Uniform(-1, 1)) * o.color_jitter;
     for (float& g : gain) g = 1.f + static_cast<float>(rng->Uniform(-1, 1)) * o.color_jitter * 0.5f;
@@ -105,15 +110,18 @@ void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentO
       const float u = (x + 0.5f) / size, v = (y + 0.5f) / size;
       const float nx = 2.f * u - 1.f, ny = 2.f * v - 1.f;
       const size_t k = (static_cast<size_t>(y) * size + x) * 3;
+      const float wx = nx + Field(warp_x, grid, u, v), wy = ny + Field(warp_y, grid, u, v);
       float sx, sy;
-      to_source(nx, ny, &sx, &sy);
+      to_source(warp_target ? wx : nx, warp_target ? wy : ny, &sx, &sy);
       Sample(image, source_size, sx, sy, target + k);
-      to_source(nx + Field(warp_x, grid, u, v), ny + Field(warp_y, grid, u, v), &sx, &sy);
+      to_source(wx, wy, &sx, &sy);
       Sample(input_image, source_size, sx, sy, input + k);
       for (int c = 0; c < 3; ++c) {
-        for (float* out : {input + k + c, target + k + c}) {
+        auto jitter = [&](float* out) {
           *out = std::clamp(((*out - 0.5f) * contrast + 0.5f + brightness) * gain[c], 0.f, 1.f);
-        }
+        };
+        if (jitter_input) jitter(input + k + c);
+        if (jitter_target) jitter(target + k + c);
       }
     }
   }

@@ -1,6 +1,7 @@
 // Augmentation of deepfake training images (as DeepFaceLab does): a random similarity
-// transform and flip shared by the input and its target, a smooth random warp of the input
-// only (so the autoencoder must undo it and cannot copy pixels), and colour jitter.
+// transform shared by the input and its target, a horizontal flip of camera pairs, a smooth
+// random warp of the input (so the autoencoder must undo it and cannot copy pixels), and
+// colour jitter.
 // Plain C++; every draw comes from the caller's Rng, so a batch is a function of the seed.
 #ifndef FACECAP_NN_AUGMENT_H_
 #define FACECAP_NN_AUGMENT_H_
@@ -19,7 +20,7 @@ struct AugmentOptions {
   float rotate_deg = 8.f;      // random rotation in [-rotate_deg, rotate_deg]
   float scale = 0.05f;         // random scale in [1 - scale, 1 + scale]
   float shift = 0.04f;         // random shift in [-shift, shift] of the image size
-  bool flip = true;            // random horizontal flip (probability 1/2)
+  bool flip = true;            // random horizontal flip of domain B's pairs (probability 1/2)
   float color_jitter = 0.15f;  // brightness, contrast and per-channel gain jitter of domain B
   // Probability that a domain-A input (a flat segmentation render) is repainted with random
   // plausible appearance: per-region albedo around a random skin tone (lips, brows, hair,
@@ -36,7 +37,9 @@ struct AugmentOptions {
     v("rotate_deg", rotate_deg, "random rotation range in degrees");
     v("scale", scale, "random scale range: [1 - scale, 1 + scale]");
     v("shift", shift, "random shift range, fraction of the image size");
-    v("flip", flip, "random horizontal flips");
+    v("flip", flip,
+      "random horizontal flips of domain B's images (segmentation targets are never mirrored: "
+      "their left and right regions would swap sides)");
     v("color_jitter", color_jitter,
       "brightness, contrast and per-channel gain jitter of domain B (0: none)");
     v("randomize_a", randomize_a,
@@ -46,13 +49,27 @@ struct AugmentOptions {
   bool Check(std::string* why) const;
 };
 
+// What an (input, target) pair is, which decides where the warp and the colour jitter go.
+enum class PairKind {
+  // Domain A: a segmentation render and itself. The warp moves the input only (the
+  // autoencoder must undo it and cannot copy pixels); no colour jitter (colours are labels).
+  kSegmentation,
+  // Domain B: a camera frame and itself. The warp moves the input only; the colour jitter
+  // applies to both (colours are not labels there).
+  kCamera,
+  // A camera frame (`input_image`) and its true segmentation (`image`): the warp moves both
+  // alike, since the target must stay where the input shows it (a region a few pixels wide
+  // moved by the warp alone is a wrong label); the colour jitter applies to the input only.
+  kPairedCamera,
+};
+
 // From one uint8 RGB image [source_size, source_size, 3], writes `input` and `target` as float
-// RGB in [0, 1], [size, size, 3] (resampled bilinearly when the sizes differ). With
-// `jitter_colors`, the colour jitter applies to both (domain B: colours are not labels there).
-// With `input_image` (same size as `image`), the input is sampled from it instead, under the
-// same geometric augmentation (a repainted segmentation render, see RepaintSegmentation).
+// RGB in [0, 1], [size, size, 3] (resampled bilinearly when the sizes differ), under a random
+// similarity transform and flip shared by both, a warp and a colour jitter placed by `kind`.
+// With `input_image` (same size as `image`), the input is sampled from it instead (a repainted
+// segmentation render, see RepaintSegmentation, or the camera frame of kPairedCamera).
 void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentOptions& options,
-                 bool jitter_colors, Rng* rng, float* input, float* target,
+                 PairKind kind, Rng* rng, float* input, float* target,
                  const uint8_t* input_image = nullptr);
 
 // What a segmentation region looks like on a person, from its name.

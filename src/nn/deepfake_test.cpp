@@ -64,9 +64,9 @@ TrainingBatch MakeBatch(const std::vector<uint8_t>& a, const std::vector<uint8_t
   AugmentOptions augment;
   for (int i = 0; i < count; ++i) {
     Rng rng(seed, first + i);
-    AugmentPair(&a[(first + i) * one], kSize, kSize, augment, false, &rng, &batch.input_a[i * one],
+    AugmentPair(&a[(first + i) * one], kSize, kSize, augment, PairKind::kSegmentation, &rng, &batch.input_a[i * one],
                 &batch.target_a[i * one]);
-    AugmentPair(&b[(first + i) * one], kSize, kSize, augment, true, &rng, &batch.input_b[i * one],
+    AugmentPair(&b[(first + i) * one], kSize, kSize, augment, PairKind::kCamera, &rng, &batch.input_b[i * one],
                 &batch.target_b[i * one]);
   }
   return batch;
@@ -285,11 +285,67 @@ TEST(Augment, NeutralOptionsReproduceTheImage) {
   const std::vector<uint8_t> image = TinyImages(1, true, 4);
   std::vector<float> input(image.size()), target(image.size());
   Rng rng(1, 2);
-  AugmentPair(image.data(), kSize, kSize, none, true, &rng, input.data(), target.data());
+  AugmentPair(image.data(), kSize, kSize, none, PairKind::kCamera, &rng, input.data(), target.data());
   for (size_t i = 0; i < image.size(); ++i) {
     ASSERT_NEAR(target[i] * 255.f, image[i], 1e-3) << i;
     ASSERT_EQ(input[i], target[i]);
   }
+}
+
+// A paired camera frame and its segmentation move together: the warp that the autoencoder's
+// pairs put on the input alone is applied to both, so a label stays under the pixels that show
+// it; the colour jitter reaches the input only (the target's colours are labels).
+TEST(Augment, PairedCameraFramesShareTheWarpWithTheirTarget) {
+  AugmentOptions o;
+  o.warp = 0.08f;
+  const std::vector<uint8_t> image = TinyImages(1, true, 9);
+  const size_t n = image.size();
+  std::vector<float> input(n), target(n), seg_input(n), seg_target(n);
+  auto max_difference = [](const std::vector<float>& x, const std::vector<float>& y) {
+    float d = 0;
+    for (size_t i = 0; i < x.size(); ++i) d = std::max(d, std::abs(x[i] - y[i]));
+    return d;
+  };
+  for (uint64_t seed = 1; seed <= 4; ++seed) {
+    o.color_jitter = 0;
+    Rng a(seed, 0), b(seed, 0);
+    AugmentPair(image.data(), kSize, kSize, o, PairKind::kPairedCamera, &a, input.data(), target.data(),
+                image.data());
+    AugmentPair(image.data(), kSize, kSize, o, PairKind::kSegmentation, &b, seg_input.data(),
+                seg_target.data());
+    EXPECT_LT(max_difference(input, target), 1e-5f) << "seed " << seed << ": the warp moves both alike";
+    EXPECT_LT(max_difference(seg_input, input), 1e-5f) << "seed " << seed << ": the same warped input";
+    EXPECT_GT(max_difference(seg_input, seg_target), 0.05f)
+        << "seed " << seed << ": the autoencoder's target is not warped";
+    o.color_jitter = 0.3f;
+    Rng c(seed, 0);
+    AugmentPair(image.data(), kSize, kSize, o, PairKind::kPairedCamera, &c, input.data(),
+                target.data(), image.data());
+    EXPECT_LT(max_difference(target, seg_input), 1e-5f) << "seed " << seed << ": the target keeps its colours";
+    EXPECT_GT(max_difference(input, target), 0.02f) << "seed " << seed << ": the input is jittered";
+  }
+}
+
+// Segmentation targets are never mirrored (a mirror would paint the left brow where the right
+// one is); camera pairs are, half of the time.
+TEST(Augment, OnlyCameraPairsAreFlipped) {
+  AugmentOptions o;
+  o.warp = 0; o.rotate_deg = 0; o.scale = 0; o.shift = 0; o.color_jitter = 0; o.flip = true;
+  const std::vector<uint8_t> image = TinyImages(1, true, 5);
+  std::vector<float> input(image.size()), target(image.size());
+  int camera_flips = 0;
+  for (uint64_t seed = 1; seed <= 16; ++seed) {
+    for (PairKind kind : {PairKind::kSegmentation, PairKind::kPairedCamera, PairKind::kCamera}) {
+      Rng rng(seed, 0);
+      AugmentPair(image.data(), kSize, kSize, o, kind, &rng, input.data(), target.data(), image.data());
+      bool same = true;
+      for (size_t i = 0; i < image.size(); ++i) same = same && std::abs(target[i] * 255.f - image[i]) < 1e-3f;
+      if (kind == PairKind::kCamera) camera_flips += same ? 0 : 1;
+      else EXPECT_TRUE(same) << "seed " << seed << ": a segmentation target was mirrored";
+    }
+  }
+  EXPECT_GT(camera_flips, 3);
+  EXPECT_LT(camera_flips, 13);
 }
 
 // A repainted segmentation keeps every region's pixels together (one albedo under smooth
@@ -336,8 +392,8 @@ TEST(Augment, RepaintedSegmentationKeepsRegionsAndTheTarget) {
     std::vector<float> input(image.size()), target(image.size()), plain_input(image.size()),
         plain_target(image.size());
     Rng a(seed, 1), b(seed, 1);
-    AugmentPair(image.data(), n, n, o, false, &a, input.data(), target.data(), out.data());
-    AugmentPair(image.data(), n, n, o, false, &b, plain_input.data(), plain_target.data());
+    AugmentPair(image.data(), n, n, o, PairKind::kSegmentation, &a, input.data(), target.data(), out.data());
+    AugmentPair(image.data(), n, n, o, PairKind::kSegmentation, &b, plain_input.data(), plain_target.data());
     EXPECT_EQ(target, plain_target);
     EXPECT_NE(input, plain_input);
   }
