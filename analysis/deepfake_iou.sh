@@ -9,8 +9,9 @@
 #
 # Environment: MINUTES (training budget, default 20), RANKS (default 2), SIZE (default 64),
 # SAMPLES (A, default 2000), CLIP_FRAMES (B, default 600), HELDOUT_FRAMES (default 120),
-# PAIRED_FRAMES (a wild clip of a third person used as paired A examples, `deepfake train
-# --paired`; default 0: none),
+# PAIRED_FRAMES (frames of each wild clip of other people used as paired A examples,
+# `deepfake train --paired`; default 0: none), PAIRED_PEOPLE (how many such people, up to 6;
+# default 1),
 # EXTRA (more `deepfake train` flags). The training budget is turned into a step count by a
 # short timed run that the long run then continues.
 set -euo pipefail
@@ -42,11 +43,17 @@ echo "# deepfake IoU benchmark: ${size}x${size}, ${ranks} ranks x ${OMP_NUM_THRE
 
 paired=()
 if [[ "${PAIRED_FRAMES:-0}" -gt 0 ]]; then
-  # Paired A examples: wild frames of yet other people with their true segmentation.
-  "${mpi[@]}" "${facecap}" synth clip --rig rig.h5 --frames "${PAIRED_FRAMES}" --size "${size}" \
-    --identity-seed 11 --motion-seed 3 --lighting-seed 3 --background-seed 3 --camera-seed 3 \
-    --out clip_paired.h5 >/dev/null 2>&1
-  paired=(--paired clip_paired.h5)
+  # Paired A examples: wild frames of yet other people with their true segmentation, each
+  # person with their own motion, lighting, background and camera.
+  seeds=(11 13 17 19 29 31)
+  for ((p = 0; p < ${PAIRED_PEOPLE:-1}; ++p)); do
+    s=$(( p == 0 ? 3 : 50 + p ))
+    "${mpi[@]}" "${facecap}" synth clip --rig rig.h5 --frames "${PAIRED_FRAMES}" --size "${size}" \
+      --identity-seed "${seeds[p]}" --motion-seed "${s}" --lighting-seed "${s}" --background-seed "${s}" \
+      --camera-seed "${s}" --out "clip_paired${p}.h5" >/dev/null 2>&1
+    paired+=("clip_paired${p}.h5")
+  done
+  paired=(--paired "$(IFS=,; echo "${paired[*]}")")
 fi
 train=("${facecap}" deepfake train --a samples.h5 --b clip_train.h5 --size "${size}"
        --checkpoint-every 500 --preview-every 500 --out deepfake.h5 "${paired[@]}" ${EXTRA:-})

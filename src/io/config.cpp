@@ -261,7 +261,12 @@ void Config::Get(const std::string& table, const std::string& key,
 void Config::Get(const std::string& table, const std::string& key,
                  std::vector<std::string>* value) const {
   const std::string origin = OriginOf(table, key);
-  GetArray(Node(impl_->root, origin, table, key), origin, table, key, value,
+  const toml::node& n = Node(impl_->root, origin, table, key);
+  if (auto v = n.value_exact<std::string>()) {  // one string: a list of one
+    *value = {*v};
+    return;
+  }
+  GetArray(n, origin, table, key, value,
            [&](const toml::node& e) {
              if (auto v = e.value_exact<std::string>()) return *v;
              TypeError(origin, table, key, "an array of strings", e);

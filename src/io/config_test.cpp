@@ -76,6 +76,18 @@ TEST(Config, OverridesFromTextAndAssignments) {
   EXPECT_THROW(c.SetAssignment("novalue"), InvalidInputError);
 }
 
+// A list of strings may be given as one string (a job file written when the option took one
+// file keeps working); other element types are still named.
+TEST(Config, OneStringIsAListOfOne) {
+  Config c = Config::Parse("[t]\nfiles = 'a.h5'\nmore = ['b.h5', 'c.h5']\nbad = [1]\n", "job.toml");
+  std::vector<std::string> files, more, bad;
+  c.Get("t", "files", &files);
+  c.Get("t", "more", &more);
+  EXPECT_EQ(files, std::vector<std::string>{"a.h5"});
+  EXPECT_EQ(more, (std::vector<std::string>{"b.h5", "c.h5"}));
+  EXPECT_THROW(c.Get("t", "bad", &bad), InvalidInputError);
+}
+
 // The message of the InvalidInputError that `fn` throws; "" when it throws none.
 template <typename Fn>
 std::string ErrorOf(Fn fn) {

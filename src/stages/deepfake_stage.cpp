@@ -56,8 +56,8 @@ struct DeepfakeTrainOptions {
   std::string b_dataset = "";                    // image dataset of B ("": first found of
                                                  // /frames/image, /frames/crop, /samples/segmentation)
   int b_holdout_every = 0;                       // B frames i % n == n - 1 are not trained on
-  std::string paired = "";                       // wild clips of other people (synth clip) as
-                                                 // paired A examples ("": none)
+  std::vector<std::string> paired;               // wild clips of other people (synth clip) as
+                                                 // paired A examples (empty: none)
   double paired_fraction = 0.5;                  // share of A examples drawn from `paired`
   std::string out = "deepfake.h5";               // model file
   int steps = 2000;                              // training steps (global batches)
@@ -84,10 +84,11 @@ struct DeepfakeTrainOptions {
     v("b_holdout_every", b_holdout_every,
       "keep every n-th frame of B (i % n == n - 1) out of training, for evaluation (0: none)");
     v("paired", paired,
-      "wild clip of other people (synth clip) whose frames, with their true segmentation as the "
-      "target, serve as paired domain-A examples: E and D_A also learn the translation from "
-      "camera-like images (empty: none, the unpaired setting)");
-    v("paired_fraction", paired_fraction, "share of the domain-A examples drawn from the paired clip");
+      "wild clips of other people (synth clip), one file or more (comma-separated), whose "
+      "frames, with their true segmentation as the target, serve as paired domain-A examples: "
+      "E and D_A also learn the translation from camera-like images (empty: none, the unpaired "
+      "setting)");
+    v("paired_fraction", paired_fraction, "share of the domain-A examples drawn from the paired clips");
     v("out", out, "model file (HDF5); OUT.checkpoint holds the checkpoint while training");
     v("steps", steps, "training steps; a finished model is trained further when this grows");
     v("batch", batch, "global batch (images of A and of B per step), shared among the ranks");
@@ -272,6 +273,17 @@ ImageShard ReadShard(const std::string& path, const std::string& requested, cons
     k = end;
   }
   return shard;
+}
+
+// Appends `more` to `all` (images of the same size; `file` names the offender otherwise).
+void Append(const ImageShard& more, const std::string& file, ImageShard* all) {
+  if (all->size != 0 && more.size != all->size) {
+    throw FileIOError(file + ": " + std::to_string(more.size) + "-pixel images, where the files before hold " +
+                      std::to_string(all->size) + "-pixel ones");
+  }
+  all->size = more.size;
+  all->total += more.total;
+  all->pixels.insert(all->pixels.end(), more.pixels.begin(), more.pixels.end());
 }
 
 // Images resampled to the network's size, as uint8.
@@ -459,12 +471,15 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
   dist::CoordinateExceptions(comm, [&] {
     shard_a = ReadShard(o.a, o.a_dataset, comm);
     shard_b = ReadShard(o.b, o.b_dataset, comm, o.b_holdout_every);
-    if (!o.paired.empty()) {
-      paired_image = ReadShard(o.paired, "/frames/image", comm);
-      paired_target = ReadShard(o.paired, "/frames/segmentation", comm);
-      if (paired_image.size != paired_target.size || paired_image.total != paired_target.total) {
-        throw FileIOError(o.paired + ": /frames/image and /frames/segmentation differ in size or count");
+    // Each rank holds its block of every paired clip, so that every person is seen by every rank.
+    for (const std::string& path : o.paired) {
+      const ImageShard image = ReadShard(path, "/frames/image", comm);
+      const ImageShard target = ReadShard(path, "/frames/segmentation", comm);
+      if (image.size != target.size || image.total != target.total) {
+        throw FileIOError(path + ": /frames/image and /frames/segmentation differ in size or count");
       }
+      Append(image, path, &paired_image);
+      Append(target, path, &paired_target);
     }
     regions = ReadRegions(io::H5File::OpenRead(o.a));
     if (o.augment.randomize_a > 0 && regions.names.empty()) {
@@ -480,8 +495,9 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
             shard_a.total, shard_a.size, shard_b.total, shard_b.size, size,
             model->num_parameters(), comm.size(), threads, o.batch);
     if (!o.paired.empty()) {
-      FC_INFO("deepfake train: paired A examples: {} frames of {} with their segmentation, {:.0f}% of A",
-              paired_target.total, o.paired, 100.0 * o.paired_fraction);
+      FC_INFO("deepfake train: paired A examples: {} frames of {} clip(s), the first {}, with their "
+              "segmentation, {:.0f}% of A",
+              paired_target.total, o.paired.size(), o.paired.front(), 100.0 * o.paired_fraction);
     }
   }
 
@@ -585,19 +601,21 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
       const uint8_t* input_a = nullptr;
       const ImageShard* target_a = &shard_a;
       int64_t index_a = ia;
+      nn::PairKind kind_a = nn::PairKind::kSegmentation;
       if (!o.paired.empty() && rng.Uniform() < o.paired_fraction) {
         // A paired example: a camera-like frame of another person, its true segmentation.
         index_a = rng.UniformInt(paired_target.count());
         target_a = &paired_target;
         input_a = paired_image.image(index_a);
+        kind_a = nn::PairKind::kPairedCamera;
       } else if (o.augment.randomize_a > 0 && rng.Uniform() < o.augment.randomize_a) {
         nn::RepaintSegmentation(shard_a.image(ia), shard_a.size, palette, &rng, repainted.data());
         input_a = repainted.data();
       }
-      nn::AugmentPair(target_a->image(index_a), target_a->size, size, o.augment, false, &rng,
+      nn::AugmentPair(target_a->image(index_a), target_a->size, size, o.augment, kind_a, &rng,
                       &batch.input_a[i * image_floats], &batch.target_a[i * image_floats],
                       input_a);
-      nn::AugmentPair(shard_b.image(ib), shard_b.size, size, o.augment, true, &rng,
+      nn::AugmentPair(shard_b.image(ib), shard_b.size, size, o.augment, nn::PairKind::kCamera, &rng,
                       &batch.input_b[i * image_floats], &batch.target_b[i * image_floats]);
     }
     const nn::DeepfakeLosses local = trainer->Backward(batch, share);

@@ -195,7 +195,8 @@ TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
 
 // Paired examples (--paired: camera-like frames with their true segmentation) teach E and D_A
 // the translation itself: after the same steps, D_A(E(I)) of such frames is nearer their
-// segmentation than after unpaired training. A paired file without the segmentation is named.
+// segmentation than after unpaired training. Of several paired clips, one without the frames
+// and their segmentation is named.
 TEST_F(DeepfakeStage, PairedExamplesTeachTheTranslation) {
   auto error = [&](const std::string& extra) {
     const std::string model = File("paired_model" + std::to_string(extra.size()) + ".h5");
@@ -214,7 +215,8 @@ TEST_F(DeepfakeStage, PairedExamplesTeachTheTranslation) {
   const double unpaired = error(""), paired = error(" --paired " + File("b.h5") + " --paired-fraction 1");
   EXPECT_LT(paired, 0.8 * unpaired) << "paired " << paired << ", unpaired " << unpaired;
 
-  auto bad = RunFacecap(Train(File("paired_bad.h5"), 2) + " --paired " + File("samples2.h5"), 0, kEnv);
+  auto bad = RunFacecap(Train(File("paired_bad.h5"), 2) + " --paired " + File("b.h5") + "," +
+                        File("samples2.h5"), 0, kEnv);
   EXPECT_EQ(bad.code, kExitInput) << bad.output;
   EXPECT_NE(bad.output.find("samples2.h5"), std::string::npos) << bad.output;
 }
