@@ -65,7 +65,8 @@ enum class PairKind {
 
 // From one uint8 RGB image [source_size, source_size, 3], writes `input` and `target` as float
 // RGB in [0, 1], [size, size, 3] (resampled bilinearly when the sizes differ), under a random
-// similarity transform and flip shared by both, a warp and a colour jitter placed by `kind`.
+// similarity transform shared by both, a flip (kCamera only), and a warp and a colour jitter
+// placed by `kind`.
 // With `input_image` (same size as `image`), the input is sampled from it instead (a repainted
 // segmentation render, see RepaintSegmentation, or the camera frame of kPairedCamera).
 void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentOptions& options,

@@ -64,10 +64,10 @@ TrainingBatch MakeBatch(const std::vector<uint8_t>& a, const std::vector<uint8_t
   AugmentOptions augment;
   for (int i = 0; i < count; ++i) {
     Rng rng(seed, first + i);
-    AugmentPair(&a[(first + i) * one], kSize, kSize, augment, PairKind::kSegmentation, &rng, &batch.input_a[i * one],
-                &batch.target_a[i * one]);
-    AugmentPair(&b[(first + i) * one], kSize, kSize, augment, PairKind::kCamera, &rng, &batch.input_b[i * one],
-                &batch.target_b[i * one]);
+    AugmentPair(&a[(first + i) * one], kSize, kSize, augment, PairKind::kSegmentation, &rng,
+                &batch.input_a[i * one], &batch.target_a[i * one]);
+    AugmentPair(&b[(first + i) * one], kSize, kSize, augment, PairKind::kCamera, &rng,
+                &batch.input_b[i * one], &batch.target_b[i * one]);
   }
   return batch;
 }
@@ -285,7 +285,8 @@ TEST(Augment, NeutralOptionsReproduceTheImage) {
   const std::vector<uint8_t> image = TinyImages(1, true, 4);
   std::vector<float> input(image.size()), target(image.size());
   Rng rng(1, 2);
-  AugmentPair(image.data(), kSize, kSize, none, PairKind::kCamera, &rng, input.data(), target.data());
+  AugmentPair(image.data(), kSize, kSize, none, PairKind::kCamera, &rng, input.data(),
+              target.data());
   for (size_t i = 0; i < image.size(); ++i) {
     ASSERT_NEAR(target[i] * 255.f, image[i], 1e-3) << i;
     ASSERT_EQ(input[i], target[i]);
@@ -309,19 +310,22 @@ TEST(Augment, PairedCameraFramesShareTheWarpWithTheirTarget) {
   for (uint64_t seed = 1; seed <= 4; ++seed) {
     o.color_jitter = 0;
     Rng a(seed, 0), b(seed, 0);
-    AugmentPair(image.data(), kSize, kSize, o, PairKind::kPairedCamera, &a, input.data(), target.data(),
-                image.data());
+    AugmentPair(image.data(), kSize, kSize, o, PairKind::kPairedCamera, &a, input.data(),
+                target.data(), image.data());
     AugmentPair(image.data(), kSize, kSize, o, PairKind::kSegmentation, &b, seg_input.data(),
                 seg_target.data());
-    EXPECT_LT(max_difference(input, target), 1e-5f) << "seed " << seed << ": the warp moves both alike";
-    EXPECT_LT(max_difference(seg_input, input), 1e-5f) << "seed " << seed << ": the same warped input";
+    EXPECT_LT(max_difference(input, target), 1e-5f)
+        << "seed " << seed << ": the warp moves both alike";
+    EXPECT_LT(max_difference(seg_input, input), 1e-5f)
+        << "seed " << seed << ": the same warped input";
     EXPECT_GT(max_difference(seg_input, seg_target), 0.05f)
         << "seed " << seed << ": the autoencoder's target is not warped";
     o.color_jitter = 0.3f;
     Rng c(seed, 0);
     AugmentPair(image.data(), kSize, kSize, o, PairKind::kPairedCamera, &c, input.data(),
                 target.data(), image.data());
-    EXPECT_LT(max_difference(target, seg_input), 1e-5f) << "seed " << seed << ": the target keeps its colours";
+    EXPECT_LT(max_difference(target, seg_input), 1e-5f)
+        << "seed " << seed << ": the target keeps its colours";
     EXPECT_GT(max_difference(input, target), 0.02f) << "seed " << seed << ": the input is jittered";
   }
 }
@@ -337,9 +341,12 @@ TEST(Augment, OnlyCameraPairsAreFlipped) {
   for (uint64_t seed = 1; seed <= 16; ++seed) {
     for (PairKind kind : {PairKind::kSegmentation, PairKind::kPairedCamera, PairKind::kCamera}) {
       Rng rng(seed, 0);
-      AugmentPair(image.data(), kSize, kSize, o, kind, &rng, input.data(), target.data(), image.data());
+      AugmentPair(image.data(), kSize, kSize, o, kind, &rng, input.data(), target.data(),
+                  image.data());
       bool same = true;
-      for (size_t i = 0; i < image.size(); ++i) same = same && std::abs(target[i] * 255.f - image[i]) < 1e-3f;
+      for (size_t i = 0; i < image.size(); ++i) {
+        same = same && std::abs(target[i] * 255.f - image[i]) < 1e-3f;
+      }
       if (kind == PairKind::kCamera) camera_flips += same ? 0 : 1;
       else EXPECT_TRUE(same) << "seed " << seed << ": a segmentation target was mirrored";
     }
@@ -392,8 +399,10 @@ TEST(Augment, RepaintedSegmentationKeepsRegionsAndTheTarget) {
     std::vector<float> input(image.size()), target(image.size()), plain_input(image.size()),
         plain_target(image.size());
     Rng a(seed, 1), b(seed, 1);
-    AugmentPair(image.data(), n, n, o, PairKind::kSegmentation, &a, input.data(), target.data(), out.data());
-    AugmentPair(image.data(), n, n, o, PairKind::kSegmentation, &b, plain_input.data(), plain_target.data());
+    AugmentPair(image.data(), n, n, o, PairKind::kSegmentation, &a, input.data(), target.data(),
+                out.data());
+    AugmentPair(image.data(), n, n, o, PairKind::kSegmentation, &b, plain_input.data(),
+                plain_target.data());
     EXPECT_EQ(target, plain_target);
     EXPECT_NE(input, plain_input);
   }

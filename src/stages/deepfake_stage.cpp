@@ -88,7 +88,8 @@ struct DeepfakeTrainOptions {
       "frames, with their true segmentation as the target, serve as paired domain-A examples: "
       "E and D_A also learn the translation from camera-like images (empty: none, the unpaired "
       "setting)");
-    v("paired_fraction", paired_fraction, "share of the domain-A examples drawn from the paired clips");
+    v("paired_fraction", paired_fraction,
+      "share of the domain-A examples drawn from the paired clips");
     v("out", out, "model file (HDF5); OUT.checkpoint holds the checkpoint while training");
     v("steps", steps, "training steps; a finished model is trained further when this grows");
     v("batch", batch, "global batch (images of A and of B per step), shared among the ranks");
@@ -278,8 +279,9 @@ ImageShard ReadShard(const std::string& path, const std::string& requested, cons
 // Appends `more` to `all` (images of the same size; `file` names the offender otherwise).
 void Append(const ImageShard& more, const std::string& file, ImageShard* all) {
   if (all->size != 0 && more.size != all->size) {
-    throw FileIOError(file + ": " + std::to_string(more.size) + "-pixel images, where the files before hold " +
-                      std::to_string(all->size) + "-pixel ones");
+    throw FileIOError(file + ": " + std::to_string(more.size) +
+                      "-pixel images, where the files before hold " + std::to_string(all->size) +
+                      "-pixel ones");
   }
   all->size = more.size;
   all->total += more.total;
@@ -476,7 +478,8 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
       const ImageShard image = ReadShard(path, "/frames/image", comm);
       const ImageShard target = ReadShard(path, "/frames/segmentation", comm);
       if (image.size != target.size || image.total != target.total) {
-        throw FileIOError(path + ": /frames/image and /frames/segmentation differ in size or count");
+        throw FileIOError(path +
+                          ": /frames/image and /frames/segmentation differ in size or count");
       }
       Append(image, path, &paired_image);
       Append(target, path, &paired_target);
@@ -495,8 +498,8 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
             shard_a.total, shard_a.size, shard_b.total, shard_b.size, size,
             model->num_parameters(), comm.size(), threads, o.batch);
     if (!o.paired.empty()) {
-      FC_INFO("deepfake train: paired A examples: {} frames of {} clip(s), the first {}, with their "
-              "segmentation, {:.0f}% of A",
+      FC_INFO("deepfake train: paired A examples: {} frames of {} clip(s), the first {}, "
+              "with their segmentation, {:.0f}% of A",
               paired_target.total, o.paired.size(), o.paired.front(), 100.0 * o.paired_fraction);
     }
   }
