@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <string>
 #include <unordered_map>
 #include <vector>
 
@@ -62,19 +63,57 @@ void ResizeToFloat(const uint8_t* image, int source_size, int size, float* out) 
   }
 }
 
+SideSwap SideSwapOf(const std::vector<std::string>& names, const std::vector<uint32_t>& colors) {
+  SideSwap sides;
+  const std::string left = "left_", right = "right_";
+  for (size_t i = 0; i < names.size() && i < colors.size(); ++i) {
+    if (names[i].rfind(left, 0) != 0) continue;
+    const std::string mirror = right + names[i].substr(left.size());
+    for (size_t j = 0; j < names.size() && j < colors.size(); ++j) {
+      if (names[j] == mirror) sides.pairs.emplace_back(colors[i], colors[j]);
+    }
+  }
+  return sides;
+}
+
+void SwapSides(const uint8_t* image, int size, const SideSwap& sides, uint8_t* out) {
+  const size_t pixels = static_cast<size_t>(size) * size;
+  for (size_t p = 0; p < pixels; ++p) {
+    const uint8_t* c = image + 3 * p;
+    const uint32_t packed = (uint32_t{c[0]} << 16) | (uint32_t{c[1]} << 8) | c[2];
+    uint32_t to = packed;
+    for (const auto& [l, r] : sides.pairs) {
+      if (packed == l) to = r;
+      if (packed == r) to = l;
+    }
+    out[3 * p] = static_cast<uint8_t>(to >> 16);
+    out[3 * p + 1] = static_cast<uint8_t>(to >> 8);
+    out[3 * p + 2] = static_cast<uint8_t>(to);
+  }
+}
+
 void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentOptions& o,
                  PairKind kind, Rng* rng, float* input, float* target,
-                 const uint8_t* input_image) {
-  if (!input_image) input_image = image;
+                 const uint8_t* input_image, const SideSwap* sides) {
   // The similarity transform, in normalized coordinates centred on the image: output point
   // p (in [-1, 1]^2) samples the source at s R p + t, mirrored in x when flipped.
   const float angle = static_cast<float>(rng->Uniform(-1, 1)) * o.rotate_deg * 3.14159265f / 180.f;
   const float s = 1.f + static_cast<float>(rng->Uniform(-1, 1)) * o.scale;
   const float tx = static_cast<float>(rng->Uniform(-1, 1)) * o.shift * 2.f;
   const float ty = static_cast<float>(rng->Uniform(-1, 1)) * o.shift * 2.f;
-  // Only camera pairs are mirrored: a mirrored segmentation would paint the left brow, eyelids
-  // and so on in the right ones' place, teaching the decoder the wrong side.
-  const bool flip = o.flip && rng->Uniform() < 0.5 && kind == PairKind::kCamera;
+  // A mirrored segmentation paints the left brow, eyelids and so on in the right ones' place,
+  // so segmentation pairs are mirrored only with their sides' colours swapped.
+  const bool mirrorable = kind == PairKind::kCamera ||
+                          (o.flip_segmentation && sides != nullptr && !sides->empty());
+  const bool flip = o.flip && rng->Uniform() < 0.5 && mirrorable;
+  std::vector<uint8_t> swapped;
+  if (flip && kind != PairKind::kCamera) {
+    swapped.resize(3 * static_cast<size_t>(source_size) * source_size);
+    SwapSides(image, source_size, *sides, swapped.data());
+    if (!input_image) input_image = swapped.data();
+    image = swapped.data();
+  }
+  if (!input_image) input_image = image;
   const float ca = std::cos(angle) * s, sa = std::sin(angle) * s;
   // The warp field: grid x grid random offsets (normalized units), zero on the border.
   const int grid = o.warp_grid;

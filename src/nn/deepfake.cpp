@@ -495,8 +495,12 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     // palette colour) under logits -|y - c_k|^2 / T, a weighted mean over the pixels.
     torch::Tensor palette_loss = torch::zeros({}, recon_a.options());
     if (w.palette_weight > 0 && t.palette.defined()) {
-      auto distances = [&](const torch::Tensor& images) {  // [B, 3, H, W] -> [B, K, H, W]
-        return (images.unsqueeze(1) - t.palette.view({1, -1, 3, 1, 1})).pow(2).sum(2);
+      // [B, 3, H, W] -> [B, K, H, W]: |y - c_k|^2 = |y|^2 - 2 y.c_k + |c_k|^2, the middle
+      // term a 1x1 convolution (no [B, K, 3, H, W] intermediate to build and differentiate).
+      const torch::Tensor palette_norms = t.palette.pow(2).sum(1).view({1, -1, 1, 1});
+      auto distances = [&](const torch::Tensor& images) {
+        const torch::Tensor dot = torch::conv2d(images, t.palette.view({-1, 3, 1, 1}));
+        return images.pow(2).sum(1, true) - 2 * dot + palette_norms;
       };
       torch::Tensor labels, pixel_weights;
       {

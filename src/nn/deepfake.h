@@ -72,7 +72,7 @@ struct DeepfakeLossOptions {
   // almost nothing when it is missing, the weighted cross-entropy does not.
   float palette_weight = 0.f;
   float palette_temperature = 0.02f;  // colour distance scale of the palette logits
-  float learning_rate = 5e-4f;        // Adam step of E, D_A, D_B
+  float learning_rate = 1e-3f;        // Adam step of E, D_A, D_B
   float discriminator_learning_rate = 2e-4f;  // Adam step of G_image, G_latent
   float beta1 = 0.5f;                 // Adam first-moment decay
   float beta2 = 0.999f;               // Adam second-moment decay

@@ -330,11 +330,12 @@ TEST(Augment, PairedCameraFramesShareTheWarpWithTheirTarget) {
   }
 }
 
-// Segmentation targets are never mirrored (a mirror would paint the left brow where the right
-// one is); camera pairs are, half of the time.
-TEST(Augment, OnlyCameraPairsAreFlipped) {
+// Without the sides' colours, segmentation targets are never mirrored (a mirror would paint the
+// left brow where the right one is); camera pairs are, half of the time.
+TEST(Augment, WithoutSidesOnlyCameraPairsAreFlipped) {
   AugmentOptions o;
   o.warp = 0; o.rotate_deg = 0; o.scale = 0; o.shift = 0; o.color_jitter = 0; o.flip = true;
+  o.flip_segmentation = true;  // without a SideSwap it cannot act
   const std::vector<uint8_t> image = TinyImages(1, true, 5);
   std::vector<float> input(image.size()), target(image.size());
   int camera_flips = 0;
@@ -353,6 +354,73 @@ TEST(Augment, OnlyCameraPairsAreFlipped) {
   }
   EXPECT_GT(camera_flips, 3);
   EXPECT_LT(camera_flips, 13);
+}
+
+// With the sides' colours given, segmentation pairs are mirrored too, half of the time, and
+// a region that moves to the other side takes the other side's colour; a paired camera frame
+// is mirrored with its segmentation (same draw) but keeps its colours.
+TEST(Augment, SegmentationPairsAreFlippedWithTheirSidesSwapped) {
+  const SideSwap sides = SideSwapOf({"skin", "left_brow", "right_brow", "right_eye", "nose"},
+                                    {0x101010, 0x20F020, 0x80F050, 0x0000FF, 0xF0E020});
+  ASSERT_EQ(sides.pairs.size(), 1u) << "only left_X pairs with right_X";
+  EXPECT_EQ(sides.pairs[0], std::make_pair(uint32_t{0x20F020}, uint32_t{0x80F050}));
+
+  // A left brow near the left border and a nose on the right: mirrored, the brow must come
+  // out on the right in the right brow's colour.
+  std::vector<uint8_t> seg(3 * kSize * kSize, 0x10), camera = TinyImages(1, true, 3);
+  auto paint = [&](int x0, int x1, uint32_t c) {
+    for (int y = 3; y < 6; ++y) {
+      for (int x = x0; x < x1; ++x) {
+        uint8_t* p = &seg[3 * (y * kSize + x)];
+        p[0] = c >> 16; p[1] = (c >> 8) & 255; p[2] = c & 255;
+      }
+    }
+  };
+  paint(1, 5, 0x20F020);
+  paint(kSize - 6, kSize - 2, 0xF0E020);
+  std::vector<uint8_t> mirrored(seg.size()), swapped(seg.size());
+  SwapSides(seg.data(), kSize, sides, swapped.data());
+  for (int y = 0; y < kSize; ++y) {
+    for (int x = 0; x < kSize; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        mirrored[3 * (y * kSize + x) + c] = swapped[3 * (y * kSize + kSize - 1 - x) + c];
+      }
+    }
+  }
+  auto equals = [](const std::vector<float>& image, const std::vector<uint8_t>& expected) {
+    for (size_t i = 0; i < image.size(); ++i) {
+      if (std::abs(image[i] * 255.f - expected[i]) > 1e-3f) return false;
+    }
+    return true;
+  };
+  AugmentOptions o;
+  o.warp = 0; o.rotate_deg = 0; o.scale = 0; o.shift = 0; o.color_jitter = 0; o.flip = true;
+  o.flip_segmentation = true;
+  std::vector<float> input(seg.size()), target(seg.size()), camera_in(seg.size());
+  int flips = 0;
+  for (uint64_t seed = 1; seed <= 16; ++seed) {
+    Rng a(seed, 0), b(seed, 0), c(seed, 0);
+    AugmentPair(seg.data(), kSize, kSize, o, PairKind::kSegmentation, &a, input.data(),
+                target.data(), nullptr, &sides);
+    const bool flipped = equals(target, mirrored);
+    EXPECT_TRUE(flipped || equals(target, seg)) << "seed " << seed;
+    EXPECT_TRUE(equals(input, flipped ? mirrored : seg)) << "seed " << seed;
+    flips += flipped ? 1 : 0;
+    AugmentPair(seg.data(), kSize, kSize, o, PairKind::kPairedCamera, &b, camera_in.data(),
+                target.data(), camera.data(), &sides);
+    EXPECT_TRUE(equals(target, flipped ? mirrored : seg)) << "seed " << seed;
+    AugmentPair(camera.data(), kSize, kSize, o, PairKind::kCamera, &c, input.data(),
+                target.data());
+    EXPECT_EQ(camera_in, input) << "seed " << seed << ": the camera frame mirrored alike";
+    o.flip_segmentation = false;
+    Rng d(seed, 0);
+    AugmentPair(seg.data(), kSize, kSize, o, PairKind::kSegmentation, &d, input.data(),
+                target.data(), nullptr, &sides);
+    EXPECT_TRUE(equals(target, seg)) << "seed " << seed << ": flip_segmentation off";
+    o.flip_segmentation = true;
+  }
+  EXPECT_GT(flips, 3);
+  EXPECT_LT(flips, 13);
 }
 
 // A repainted segmentation keeps every region's pixels together (one albedo under smooth

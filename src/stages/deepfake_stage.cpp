@@ -591,6 +591,8 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
     palette.colors.push_back(pack(regions.colors(r, 0), regions.colors(r, 1), regions.colors(r, 2)));
     palette.kinds.push_back(nn::RegionKindOf(regions.names[r]));
   }
+  // Left and right regions trade colours when a segmentation pair is mirrored.
+  const nn::SideSwap sides = nn::SideSwapOf(regions.names, palette.colors);
   if (o.loss.palette_weight > 0) {
     const PaletteWeights pw = RegionWeights(regions, {&shard_a, &paired_target}, comm);
     trainer->SetPalette(pw.colors, pw.weights);
@@ -617,7 +619,7 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
       }
       nn::AugmentPair(target_a->image(index_a), target_a->size, size, o.augment, kind_a, &rng,
                       &batch.input_a[i * image_floats], &batch.target_a[i * image_floats],
-                      input_a);
+                      input_a, &sides);
       nn::AugmentPair(shard_b.image(ib), shard_b.size, size, o.augment, nn::PairKind::kCamera, &rng,
                       &batch.input_b[i * image_floats], &batch.target_b[i * image_floats]);
     }
