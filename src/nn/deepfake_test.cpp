@@ -387,6 +387,12 @@ TEST(Augment, SegmentationPairsAreFlippedWithTheirSidesSwapped) {
       }
     }
   }
+  auto pixel = [&](int x, int y) {
+    const uint8_t* p = &mirrored[3 * (y * kSize + x)];
+    return (uint32_t{p[0]} << 16) | (uint32_t{p[1]} << 8) | p[2];
+  };
+  ASSERT_EQ(pixel(kSize - 1 - 2, 4), 0x80F050u) << "the mirrored left brow is a right brow";
+  ASSERT_EQ(pixel(3, 4), 0xF0E020u) << "the nose keeps its colour";
   auto equals = [](const std::vector<float>& image, const std::vector<uint8_t>& expected) {
     for (size_t i = 0; i < image.size(); ++i) {
       if (std::abs(image[i] * 255.f - expected[i]) > 1e-3f) return false;
