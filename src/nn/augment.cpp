@@ -22,6 +22,11 @@ bool AugmentOptions::Check(std::string* why) const {
 
 namespace {
 
+// An RGB pixel as 0xRRGGBB (the key of a segmentation palette).
+inline uint32_t PackPixel(const uint8_t* rgb) {
+  return (uint32_t{rgb[0]} << 16) | (uint32_t{rgb[1]} << 8) | rgb[2];
+}
+
 // Bilinear sample of channel-interleaved uint8 RGB at pixel coordinates (x, y), edges clamped.
 inline void Sample(const uint8_t* image, int n, float x, float y, float* rgb) {
   x = std::clamp(x, 0.f, static_cast<float>(n - 1));
@@ -79,8 +84,7 @@ SideSwap SideSwapOf(const std::vector<std::string>& names, const std::vector<uin
 void SwapSides(const uint8_t* image, int size, const SideSwap& sides, uint8_t* out) {
   const size_t pixels = static_cast<size_t>(size) * size;
   for (size_t p = 0; p < pixels; ++p) {
-    const uint8_t* c = image + 3 * p;
-    const uint32_t packed = (uint32_t{c[0]} << 16) | (uint32_t{c[1]} << 8) | c[2];
+    const uint32_t packed = PackPixel(image + 3 * p);
     uint32_t to = packed;
     for (const auto& [l, r] : sides.pairs) {
       if (packed == l) to = r;
@@ -257,7 +261,7 @@ void RepaintSegmentation(const uint8_t* image, int size, const SegmentationPalet
   for (int y = 0; y < size; ++y) {
     for (int x = 0; x < size; ++x) {
       const size_t k = (static_cast<size_t>(y) * size + x) * 3;
-      const uint32_t packed = (uint32_t{image[k]} << 16) | (uint32_t{image[k + 1]} << 8) | image[k + 2];
+      const uint32_t packed = PackPixel(image + k);
       const int r = region_of(packed);
       const float u = (x + 0.5f) / size, v = (y + 0.5f) / size;
       Rgb c;
