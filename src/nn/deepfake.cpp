@@ -177,7 +177,8 @@ bool DeepfakeNetworkOptions::Check(std::string* why) const {
 }
 
 bool DeepfakeLossOptions::Check(std::string* why) const {
-  for (float w : {l1_weight, l2_weight, dssim_weight, image_gan_weight, latent_gan_weight, palette_weight}) {
+  for (float w : {l1_weight, l2_weight, dssim_weight, image_gan_weight, latent_gan_weight, palette_weight,
+                   region_l1_weight}) {
     if (!(w >= 0)) { *why = "loss weights must be >= 0"; return false; }
   }
   if (l1_weight + l2_weight + dssim_weight <= 0) {
@@ -202,10 +203,12 @@ bool DeepfakeLossOptions::Check(std::string* why) const {
 void DeepfakeLosses::ToArray(double* v) const {
   v[0] = recon_a; v[1] = recon_b; v[2] = image_adversarial; v[3] = latent_adversarial;
   v[4] = image_discriminator; v[5] = latent_discriminator; v[6] = palette_a;
+  v[7] = region_l1_a;
 }
 void DeepfakeLosses::FromArray(const double* v) {
   recon_a = v[0]; recon_b = v[1]; image_adversarial = v[2]; latent_adversarial = v[3];
   image_discriminator = v[4]; latent_discriminator = v[5]; palette_a = v[6];
+  region_l1_a = v[7];
 }
 
 void SetTorchThreads(int threads) {
@@ -492,9 +495,11 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     // f_recon = ||D_A(E(I_A)) - I_A|| + ||D_B(E(I_B)) - I_B||
     const torch::Tensor recon_loss_a = reconstruction(recon_a, target_a);
     // The palette term: the weighted cross-entropy of each pixel's target region (its nearest
-    // palette colour) under logits -|y - c_k|^2 / T, a weighted mean over the pixels.
+    // palette colour) under logits -|y - c_k|^2 / T, a weighted mean over the pixels; the
+    // region-weighted L1 term: |y - x| with the same pixel weights.
     torch::Tensor palette_loss = torch::zeros({}, recon_a.options());
-    if (w.palette_weight > 0 && t.palette.defined()) {
+    torch::Tensor region_l1_loss = torch::zeros({}, recon_a.options());
+    if ((w.palette_weight > 0 || w.region_l1_weight > 0) && t.palette.defined()) {
       // [B, 3, H, W] -> [B, K, H, W]: |y - c_k|^2 = |y|^2 - 2 y.c_k + |c_k|^2, the middle
       // term a 1x1 convolution (no [B, K, 3, H, W] intermediate to build and differentiate).
       const torch::Tensor palette_norms = t.palette.pow(2).sum(1).view({1, -1, 1, 1});
@@ -508,9 +513,14 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
         labels = distances(target_a).argmin(1);                       // [B, H, W]
         pixel_weights = t.palette_weights.index({labels});            // [B, H, W]
       }
-      const torch::Tensor log_p = torch::log_softmax(-distances(recon_a) / w.palette_temperature, 1);
-      const torch::Tensor nll = -log_p.gather(1, labels.unsqueeze(1)).squeeze(1);
-      palette_loss = (nll * pixel_weights).mean();
+      if (w.palette_weight > 0) {
+        const torch::Tensor log_p = torch::log_softmax(-distances(recon_a) / w.palette_temperature, 1);
+        const torch::Tensor nll = -log_p.gather(1, labels.unsqueeze(1)).squeeze(1);
+        palette_loss = (nll * pixel_weights).mean();
+      }
+      if (w.region_l1_weight > 0) {
+        region_l1_loss = ((recon_a - target_a).abs() * pixel_weights.unsqueeze(1)).mean();
+      }
     }
     const torch::Tensor recon_loss_b = reconstruction(recon_b, target_b);
     // The generators' side of the asymmetric GAN losses (least squares): D_A maximizes f_image
@@ -521,7 +531,8 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     const torch::Tensor latent_adversarial =
         (1.0 - m.latent_discriminator->forward(code_b)).pow(2).mean();
     const torch::Tensor generator_loss =
-        (recon_loss_a + recon_loss_b + w.palette_weight * palette_loss + w.image_gan_weight * image_adversarial +
+        (recon_loss_a + recon_loss_b + w.palette_weight * palette_loss + w.region_l1_weight * region_l1_loss +
+         w.image_gan_weight * image_adversarial +
          w.latent_gan_weight * latent_adversarial) * share;
     generator_loss.backward();
     {
@@ -547,6 +558,7 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     out.image_discriminator = image_discriminator.item<double>() * share;
     out.latent_discriminator = latent_discriminator.item<double>() * share;
     out.palette_a = palette_loss.item<double>() * share;
+    out.region_l1_a = region_l1_loss.item<double>() * share;
   }
   if (!t.on_cpu()) t.gradients_host.copy_(t.gradients);
   return out;

@@ -147,12 +147,13 @@ TEST_F(DeepfakeTrainerTest, LossFallsOnATinyDataset) {
   EXPECT_LT(last, 0.6 * first) << "first 5 steps " << first / 5 << ", last 5 steps " << last / 5;
 }
 
-// The palette term (weighted region cross-entropy of D_A's output): split shares still sum to
-// the whole batch's gradient, and training lowers it.
-TEST_F(DeepfakeTrainerTest, PaletteTermSplitsExactlyAndFalls) {
+// The palette terms (weighted region cross-entropy and region-weighted L1 of D_A's output):
+// split shares still sum to the whole batch's gradient, and training lowers them.
+TEST_F(DeepfakeTrainerTest, PaletteTermsSplitExactlyAndFall) {
   DeepfakeLossOptions losses;
   losses.learning_rate = 2e-3f;
   losses.palette_weight = 1.f;
+  losses.region_l1_weight = 1.f;
   const std::vector<float> colors = {0.f, 0.f, 0.f, 250 / 255.f, 40 / 255.f, 40 / 255.f};
   const std::vector<float> weights = {0.6f, 2.5f};
   {
@@ -162,11 +163,14 @@ TEST_F(DeepfakeTrainerTest, PaletteTermSplitsExactlyAndFalls) {
     trainer.SetPalette(colors, weights);
     const DeepfakeLosses whole = trainer.Backward(batch, 1.0);
     EXPECT_GT(whole.palette_a, 0.0);
+    EXPECT_GT(whole.region_l1_a, 0.0);
     const std::vector<float> full(trainer.gradients(), trainer.gradients() + trainer.num_gradients());
     std::vector<float> sum(full.size(), 0.f);
-    double palette = 0;
+    double palette = 0, region_l1 = 0;
     for (const auto& [first, count] : {std::pair<int, int>{0, 4}, std::pair<int, int>{4, 2}}) {
-      palette += trainer.Backward(Slice(batch, first, count), count / 6.0).palette_a;
+      const DeepfakeLosses part = trainer.Backward(Slice(batch, first, count), count / 6.0);
+      palette += part.palette_a;
+      region_l1 += part.region_l1_a;
       for (size_t i = 0; i < sum.size(); ++i) sum[i] += trainer.gradients()[i];
     }
     double max_err = 0, max_abs = 0;
@@ -176,19 +180,27 @@ TEST_F(DeepfakeTrainerTest, PaletteTermSplitsExactlyAndFalls) {
     }
     EXPECT_LT(max_err, 1e-4 * max_abs);
     EXPECT_NEAR(palette, whole.palette_a, 1e-5);
+    EXPECT_NEAR(region_l1, whole.region_l1_a, 1e-5);
   }
   DeepfakeModel model(TinyNetwork(), 7);
   DeepfakeTrainer trainer(&model, losses);
   trainer.SetPalette(colors, weights);
-  double first = 0, last = 0;
+  double first = 0, last = 0, first_l1 = 0, last_l1 = 0;
   const int steps = 60;
   for (int step = 0; step < steps; ++step) {
     const DeepfakeLosses l = trainer.Backward(MakeBatch(a_, b_, (step * 4) % 12, 4, step), 1.0);
     trainer.OptimizerStep();
-    if (step < 5) first += l.palette_a;
-    if (step >= steps - 5) last += l.palette_a;
+    if (step < 5) {
+      first += l.palette_a;
+      first_l1 += l.region_l1_a;
+    }
+    if (step >= steps - 5) {
+      last += l.palette_a;
+      last_l1 += l.region_l1_a;
+    }
   }
   EXPECT_LT(last, 0.5 * first) << "first 5 steps " << first / 5 << ", last 5 steps " << last / 5;
+  EXPECT_LT(last_l1, 0.6 * first_l1) << "first 5 steps " << first_l1 / 5 << ", last 5 steps " << last_l1 / 5;
   EXPECT_THROW(trainer.SetPalette({0.f, 0.f}, {1.f}), InvalidInputError);
 }
 

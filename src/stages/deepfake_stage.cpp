@@ -593,10 +593,10 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
   }
   // Left and right regions trade colours when a segmentation pair is mirrored.
   const nn::SideSwap sides = nn::SideSwapOf(regions.names, palette.colors);
-  if (o.loss.palette_weight > 0) {
+  if (o.loss.palette_weight > 0 || o.loss.region_l1_weight > 0) {
     const PaletteWeights pw = RegionWeights(regions, {&shard_a, &paired_target}, comm);
     trainer->SetPalette(pw.colors, pw.weights);
-    if (comm.IsMainRank()) FC_INFO("deepfake train: palette term, region weights {}", pw.summary);
+    if (comm.IsMainRank()) FC_INFO("deepfake train: region weights of the palette terms {}", pw.summary);
   }
   std::vector<uint8_t> repainted(3LL * shard_a.size * shard_a.size);
   for (int64_t step = start_step; step < o.steps; ++step) {
@@ -643,8 +643,9 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
       const double elapsed = std::chrono::duration<double>(now - start).count();
       const double rate = (done - start_step) / std::max(elapsed, 1e-9);
       for (double& w : window) w /= window_steps;
-      const std::string palette_term =
-          o.loss.palette_weight > 0 ? fmt::format("  palette_a {:.3f}", window[6]) : std::string();
+      std::string palette_term;
+      if (o.loss.palette_weight > 0) palette_term += fmt::format("  palette_a {:.3f}", window[6]);
+      if (o.loss.region_l1_weight > 0) palette_term += fmt::format("  region_l1_a {:.4f}", window[7]);
       FC_INFO("deepfake train: step {}/{} ({:.1f}%)  recon_a {:.4f}  recon_b {:.4f}{}  "
               "image_adv {:.3f}  latent_adv {:.3f}  f_image {:.3f}  f_latent {:.3f}  "
               "{:.2f} steps/s  ETA {}",
