@@ -130,6 +130,9 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
   const int L = static_cast<int>(rig.landmarks.size());
   const bool has_eyes = L == 68;
   double pose_err = 0., weight_err = 0., nme = 0., vertex_rel = 0., translation_err = 0.;
+  // The weight MAE of the neutral face (every weight 0): what solving no expression at all
+  // scores on this clip, the reference that weights_mae has to beat.
+  double neutral_weight_err = 0.;
   std::vector<double> per_shape(S, 0.);
   std::vector<double> pose_errors;
   rig::Vertices truth_posed, solved_posed;
@@ -156,6 +159,7 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
       const double e = std::abs(wt[s] - ws[s]);
       per_shape[s] += e;
       weight_err += e / S;
+      neutral_weight_err += std::abs(wt[s]) / S;
     }
     const double pe = RotationAngleDeg(truth_pose, solved);
     pose_errors.push_back(pe);
@@ -197,6 +201,7 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
      << ", \"pose_err_deg_median\": " << JsonNumber(pose_median)
      << ", \"translation_err_cm_mean\": " << JsonNumber(translation_err / n)
      << ", \"weights_mae\": " << JsonNumber(weight_err / n)
+     << ", \"weights_mae_neutral\": " << JsonNumber(neutral_weight_err / n)
      << ", \"landmark_nme\": " << (has_eyes ? JsonNumber(nme / n) : "null")
      << ", \"vertex_err_rel_mean\": " << (has_eyes ? JsonNumber(vertex_rel / n) : "null")
      << ", \"sec_per_frame\": " << JsonNumber(sec / n)
@@ -210,10 +215,10 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
   if (o.json) {
     std::cout << js.str() << std::endl;
   } else {
-    std::printf("frames %lld\npose error %.3f deg (median %.3f)\nweight MAE %.4f\n"
+    std::printf("frames %lld\npose error %.3f deg (median %.3f)\nweight MAE %.4f (neutral face: %.4f)\n"
                 "landmark NME %.4f\nvertex error / IOD %.4f\nsec per frame %.4f\n",
-                static_cast<long long>(scored), pose_err / n, pose_median, weight_err / n, nme / n,
-                vertex_rel / n, sec / n);
+                static_cast<long long>(scored), pose_err / n, pose_median, weight_err / n,
+                neutral_weight_err / n, nme / n, vertex_rel / n, sec / n);
   }
   if (!o.out.empty()) {
     std::ofstream file(o.out);

@@ -79,7 +79,8 @@ TEST_F(TrackStage, OneAndThreeRanksWriteIdenticalTracksAndEvalReportsMetrics) {
                       " --rig " + File("rig.h5") + " --json");
   ASSERT_EQ(e.code, 0) << e.output;
   for (const char* key : {"\"frames\": 5", "pose_err_deg_mean", "weights_mae", "landmark_nme",
-                          "vertex_err_rel_mean", "sec_per_frame", "weights_mae_per_shape"}) {
+                          "vertex_err_rel_mean", "sec_per_frame", "weights_mae_per_shape",
+                          "weights_mae_neutral"}) {
     EXPECT_NE(e.output.find(key), std::string::npos) << key << " missing in " << e.output;
   }
 }
