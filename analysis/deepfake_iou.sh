@@ -13,7 +13,8 @@
 # `deepfake train --paired`; default 0: none), PAIRED_PEOPLE (how many such people, up to 6;
 # default 1),
 # EXTRA (more `deepfake train` flags). The training budget is turned into a step count by a
-# short timed run that the long run then continues.
+# short timed run that the long run then continues. Ends with the IoU per region and the
+# tracking of the held-out clip through its translations (pose, weight and landmark errors).
 set -euo pipefail
 
 source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -72,4 +73,9 @@ echo "# training took $(( $(date +%s) - start )) s"
 "${mpi[@]}" "${facecap}" deepfake infer --model deepfake.h5 --frames clip_heldout.h5 \
   --out translated.h5 --overlay-count 6 >/dev/null 2>&1
 "${iou}" --translated translated.h5 --truth clip_heldout.h5
+# Tracking through the translations (paper 000 Sec. 8) with the held-out person's own rig,
+# scored against the clip's truth: what the translation is worth to the tracker.
+"${mpi[@]}" "${facecap}" track --rig clip_heldout.h5 --targets translated.h5 \
+  --targets-dataset /frames/translated --init previous --out track.h5 >/dev/null 2>&1
+"${facecap}" eval track --truth clip_heldout.h5 --track track.h5 --no-json | sed 's/^/track: /'
 echo "# preview: ${work_dir}/deepfake_preview.png, contours: ${work_dir}/translated_contours.png"
