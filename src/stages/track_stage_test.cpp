@@ -83,6 +83,14 @@ TEST_F(TrackStage, OneAndThreeRanksWriteIdenticalTracksAndEvalReportsMetrics) {
                           "weights_mae_neutral"}) {
     EXPECT_NE(e.output.find(key), std::string::npos) << key << " missing in " << e.output;
   }
+  // The neutral face's weight MAE is the mean |w| of the truth's weights (all 52 shapes).
+  const auto truth_weights = io::H5File::OpenRead(File("samples.h5")).ReadMatrix<float>("/samples/weights");
+  ASSERT_EQ(truth_weights.cols(), 52);
+  const double expected = truth_weights.cwiseAbs().mean();
+  const std::string key = "\"weights_mae_neutral\": ";
+  const size_t at = e.output.find(key);
+  ASSERT_NE(at, std::string::npos) << e.output;
+  EXPECT_NEAR(std::stod(e.output.substr(at + key.size())), expected, 1e-5 + 1e-4 * expected);
 }
 
 TEST_F(TrackStage, KilledRunContinuesToTheUninterruptedResult) {
