@@ -3,6 +3,7 @@
 
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -59,14 +60,15 @@ TORCH_MODULE(EncoderNet);
 // convolution (channels halving down to decoder_width), and a 3x3 convolution to RGB in [0, 1].
 // With skips > 0, the upsampled features of the `skips` finest encoder levels are concatenated
 // with the encoder's features of the same resolution before the convolution (a U-Net).
+// `width` is the channels of the last level (decoder_width for D_A, decoder_b_width for D_B).
 struct DecoderNetImpl : torch::nn::Module {
-  explicit DecoderNetImpl(const DeepfakeNetworkOptions& o)
+  DecoderNetImpl(const DeepfakeNetworkOptions& o, int width)
       : levels(Log2(o.size / o.latent_resolution)), skips(o.skips) {
-    int in = o.decoder_width << (levels - 1);
+    int in = width << (levels - 1);
     input = register_module("in", Conv(o.latent_channels, in, 3, 1, 1));
     for (int l = levels - 1; l >= 0; --l) {
       const int k = levels - 1 - l;
-      const int out = o.decoder_width << l;
+      const int out = width << l;
       const int skip_level = levels - 2 - k;  // encoder level of the same resolution
       const int extra = skip_level >= 0 && skip_level < skips ? (o.encoder_width << skip_level) : 0;
       up.push_back(register_module("up" + std::to_string(k), Conv(in + extra, out, 3, 1, 1)));
@@ -163,14 +165,18 @@ bool DeepfakeNetworkOptions::Check(std::string* why) const {
     *why = "encoder_width, decoder_width, discriminator_width and latent_channels must be positive";
     return false;
   }
+  if (decoder_b_width < 0) {
+    *why = "decoder_b_width must be 0 (decoder_width) or positive";
+    return false;
+  }
   const int levels = Log2(size / latent_resolution);
   if (skips < 0 || skips > levels - 1) {
     *why = "skips must be in [0, " + std::to_string(levels - 1) + "] for this size and latent_resolution";
     return false;
   }
   if ((static_cast<int64_t>(encoder_width) << levels) > 65536 ||
-      (static_cast<int64_t>(decoder_width) << levels) > 65536) {
-    *why = "encoder_width or decoder_width is too large for this many levels";
+      (static_cast<int64_t>(std::max(decoder_width, decoder_b_width)) << levels) > 65536) {
+    *why = "encoder_width or a decoder width is too large for this many levels";
     return false;
   }
   return true;
@@ -180,6 +186,10 @@ bool DeepfakeLossOptions::Check(std::string* why) const {
   for (float w : {l1_weight, l2_weight, dssim_weight, image_gan_weight, latent_gan_weight, palette_weight,
                    region_l1_weight}) {
     if (!(w >= 0)) { *why = "loss weights must be >= 0"; return false; }
+  }
+  if (!(gradient_clip >= 0)) {
+    *why = "gradient_clip must be >= 0 (0: no cap)";
+    return false;
   }
   if (l1_weight + l2_weight + dssim_weight <= 0) {
     *why = "at least one of l1_weight, l2_weight, dssim_weight must be positive";
@@ -272,8 +282,9 @@ DeepfakeModel::DeepfakeModel(const DeepfakeNetworkOptions& options, uint64_t ini
   }
   torch::manual_seed(init_seed);
   m.encoder = EncoderNet(options);
-  m.decoder_a = DecoderNet(options);
-  m.decoder_b = DecoderNet(options);
+  m.decoder_a = DecoderNet(options, options.decoder_width);
+  m.decoder_b = DecoderNet(options, options.decoder_b_width > 0 ? options.decoder_b_width
+                                                                : options.decoder_width);
   m.image_discriminator = MakeImageDiscriminator(options);
   m.latent_discriminator = MakeLatentDiscriminator(options);
   m.encoder->to(m.device);
@@ -592,6 +603,13 @@ void DeepfakeTrainer::OptimizerStep() {
     torch::Tensor grad = t.gradients.narrow(0, begin, count);
     torch::Tensor mom1 = t.first_moment.narrow(0, begin, count);
     torch::Tensor mom2 = t.second_moment.narrow(0, begin, count);
+    if (t.losses.gradient_clip > 0 && t.step > 1) {
+      // ||g|| against the RMS norm of the gradients so far, sqrt(sum of v / (1 - b2^(k-1))).
+      const double seen = mom2.sum().item<double>() / (1.0 - std::pow(b2, t.step - 1.0));
+      const double norm = grad.norm().item<double>();
+      const double cap = t.losses.gradient_clip * std::sqrt(seen);
+      if (cap > 0 && norm > cap) grad.mul_(cap / norm);
+    }
     mom1.mul_(b1).add_(grad, 1.0 - b1);
     mom2.mul_(b2).addcmul_(grad, grad, 1.0 - b2);
     const torch::Tensor denominator = (mom2.sqrt() / std::sqrt(bias2)).add_(eps);

@@ -40,6 +40,9 @@ struct DeepfakeNetworkOptions {
   // everything passes through the code E(I); skips let the decoders draw fine borders from
   // fewer training steps, and the latent discriminator still acts on the code.
   int skips = 0;
+  // Channels of D_B's last level (0: decoder_width). D_B only reconstructs domain B, so that
+  // E learns to encode real frames; a narrower D_B leaves more of each step to E and D_A.
+  int decoder_b_width = 0;
 
   template <class V>
   void Visit(V&& v) {
@@ -51,6 +54,8 @@ struct DeepfakeNetworkOptions {
     v("discriminator_width", discriminator_width, "channels of the discriminators");
     v("skips", skips,
       "finest encoder levels whose features also feed the decoders (U-Net skips; 0: none)");
+    v("decoder_b_width", decoder_b_width,
+      "channels of D_B's last level, doubled per level up (0: decoder_width)");
   }
   bool Check(std::string* why) const;
   int64_t LatentSize() const {
@@ -79,6 +84,11 @@ struct DeepfakeLossOptions {
   // raised the held-out IoU after 1,200 steps from 0.400 to 0.435 (analysis/deepfake_iou.sh).
   float region_l1_weight = 2.f;
   float learning_rate = 1e-3f;        // Adam step of E, D_A, D_B
+  // Caps each step's gradient norm (generators and discriminators apart) at this multiple of
+  // the running RMS norm Adam has seen (its second moment, bias-corrected): a sudden gradient
+  // far above it would otherwise move the weights up to (1 - beta1) / sqrt(1 - beta2) = 16
+  // learning rates at once. 0: no cap.
+  float gradient_clip = 0.f;
   float discriminator_learning_rate = 2e-4f;  // Adam step of G_image, G_latent
   float beta1 = 0.5f;                 // Adam first-moment decay
   float beta2 = 0.999f;               // Adam second-moment decay
@@ -99,6 +109,9 @@ struct DeepfakeLossOptions {
       "weight of an L1 term on D_A's output with each pixel weighted by its target region's "
       "rarity, as the palette term's regions (0: none)");
     v("learning_rate", learning_rate, "Adam learning rate of the encoder and decoders");
+    v("gradient_clip", gradient_clip,
+      "cap on each step's gradient norm, as a multiple of its running RMS in Adam's second "
+      "moment (0: no cap)");
     v("discriminator_learning_rate", discriminator_learning_rate,
       "Adam learning rate of the discriminators");
     v("beta1", beta1, "Adam first-moment decay");

@@ -65,8 +65,10 @@ DeepfakeNetworkOptions ReadNetworkOptions(const io::H5File& file) {
     throw FileIOError(file.path() + ": no /weights group; is this a deepfake model file?");
   }
   o.Visit([&](const char* key, int& value, const char*) {
-    if (!file.HasAttribute(kWeights, key) && std::string(key) == "skips") {
-      value = 0;  // files written before skip connections existed
+    const std::string name = key;
+    if (!file.HasAttribute(kWeights, key) &&
+        (name == "skips" || name == "decoder_b_width")) {
+      value = 0;  // files written before these options existed: their behaviour then
       return;
     }
     if (!file.HasAttribute(kWeights, key)) {

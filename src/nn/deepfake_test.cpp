@@ -4,8 +4,10 @@
 #include "nn/deepfake.h"
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -101,6 +103,78 @@ TEST_F(DeepfakeTrainerTest, LayoutCoversOneContiguousBufferWithModulePaths) {
   EXPECT_EQ(next, model.num_parameters());
   EXPECT_EQ(model.ParameterLayout().front().name, "encoder/down0/weight");
   EXPECT_EQ(model.ParameterLayout().back().name, "latent_discriminator/score/bias");
+}
+
+// A narrower D_B: its layers have the width asked for, D_A keeps decoder_width, and the model
+// file records it and rebuilds the same network from it.
+TEST_F(DeepfakeTrainerTest, NarrowerDecoderBIsBuiltAndStored) {
+  DeepfakeNetworkOptions o = TinyNetwork();
+  o.decoder_b_width = 4;
+  DeepfakeModel model(o, 7);
+  std::vector<int64_t> a_last, b_last;
+  for (const TensorSlot& s : model.ParameterLayout()) {
+    if (s.name == "decoder_a/rgb/weight") a_last = s.shape;
+    if (s.name == "decoder_b/rgb/weight") b_last = s.shape;
+  }
+  EXPECT_EQ(a_last, (std::vector<int64_t>{3, 8, 3, 3}));
+  EXPECT_EQ(b_last, (std::vector<int64_t>{3, 4, 3, 3}));
+  EXPECT_LT(model.num_parameters(), DeepfakeModel(TinyNetwork(), 7).num_parameters());
+
+  testing::TempDir dir;
+  const std::string path = dir.File("model.h5");
+  {
+    io::H5File f = io::H5File::CreateAtomic(path);
+    WriteWeights(&f, &model);
+    f.Commit();
+  }
+  EXPECT_EQ(ReadNetworkOptions(io::H5File::OpenRead(path)).decoder_b_width, 4);
+  DeepfakeModel read_back(ReadNetworkOptions(io::H5File::OpenRead(path)), 8);
+  ReadWeights(io::H5File::OpenRead(path), &read_back);
+  EXPECT_EQ(read_back.ParameterHash(), model.ParameterHash());
+  o.decoder_b_width = -1;
+  EXPECT_THROW(DeepfakeModel(o, 7), InvalidInputError);
+}
+
+// gradient_clip: a gradient a thousand times its usual size (what a loss spike hands Adam)
+// moves the weights no further than a gradient at the cap would, where unclipped Adam with
+// beta1 0.5 jumps 0.5 sqrt(k) learning rates in every weight after k steps (16 once the second
+// moment's bias correction has faded).
+TEST_F(DeepfakeTrainerTest, GradientClipBoundsTheStepOfASpike) {
+  auto step_sizes = [&](float clip) {
+    DeepfakeLossOptions losses;
+    losses.gradient_clip = clip;
+    DeepfakeModel model(TinyNetwork(), 7);
+    DeepfakeTrainer trainer(&model, losses);
+    const int64_t n = trainer.num_gradients();
+    std::vector<float> before;
+    auto step = [&](float scale) {
+      trainer.Backward(MakeBatch(a_, b_, (trainer.step() * 4) % 12, 4, trainer.step()), 1.0);
+      for (int64_t i = 0; i < n; ++i) trainer.gradients()[i] *= scale;
+      before.assign(model.parameters(), model.parameters() + n);
+      trainer.OptimizerStep();
+      double moved = 0;
+      for (int64_t i = 0; i < n; ++i) moved += std::pow(model.parameters()[i] - before[i], 2);
+      return std::sqrt(moved);
+    };
+    for (int k = 0; k < 60; ++k) step(1.f);
+    const double ordinary = step(1.f);
+    return std::pair<double, double>{ordinary, step(1000.f)};
+  };
+  const auto [ordinary, spike] = step_sizes(0.f);
+  const auto [ordinary_clipped, spike_clipped] = step_sizes(3.f);
+  const std::string moves = "ordinary " + std::to_string(ordinary) + ", spike " +
+                            std::to_string(spike) + "; clipped: ordinary " +
+                            std::to_string(ordinary_clipped) + ", spike " + std::to_string(spike_clipped);
+  EXPECT_GT(spike, 4 * ordinary) << moves;
+  // Ordinary steps are not touched by a cap of 3 RMS; the spike's gradient is cut to 3 RMS,
+  // which moves the weights about three ordinary steps' worth (2.7 here) instead of seven.
+  EXPECT_EQ(ordinary_clipped, ordinary) << moves;
+  EXPECT_LT(spike_clipped, 3.5 * ordinary_clipped) << moves;
+  EXPECT_LT(spike_clipped, 0.5 * spike) << moves;
+  DeepfakeLossOptions bad;
+  bad.gradient_clip = -1;
+  std::string why;
+  EXPECT_FALSE(bad.Check(&why));
 }
 
 TEST_F(DeepfakeTrainerTest, SharesOfASplitBatchSumToTheWholeBatchGradient) {
