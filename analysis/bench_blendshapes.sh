@@ -2,7 +2,8 @@
 # Blendshape generation figures (paper 001 Sec. 4, Table 2), measured side by side:
 #   1. the comparison table of jobs/blendshapes.toml (runs the job first if needed, 2 ranks),
 #   2. training throughput on 1 and on 2 ranks (1 thread each) and the parallel efficiency,
-#   3. inference time per person on one core (from the evaluation).
+#   3. inference time per person on one core (from the evaluation),
+#   4. what a method that sees only the neutral can reach (analysis/blendshapes_ceiling.py).
 # Usage: analysis/bench_blendshapes.sh [build dir]   (run from the repository root)
 set -euo pipefail
 BUILD=${1:-build}
@@ -34,3 +35,9 @@ one, two = float(sys.argv[1]), float(sys.argv[2])
 print(f"1 rank: {one:.3f} steps/s   2 ranks: {two:.3f} steps/s   speedup {two/one:.2f}   "
       f"efficiency {two/one/2*100:.0f}% (target >= 85%)")
 PY
+
+echo "== what a method that sees only the neutral can reach on this database =="
+# Shapes built from the database's own terms (true g, f, h; g learnt from the training people)
+# against ours, scored like the comparison above (analysis/blendshapes_ceiling.py explains).
+"$FACECAP" eval blendshapes --job "$JOB" --shapes "$OUT/shapes.h5" > /dev/null
+/usr/bin/python3 analysis/blendshapes_ceiling.py --scans "$OUT/scans.h5" --shapes "$OUT/shapes.h5" 2> /dev/null

@@ -144,5 +144,32 @@ TEST(ScanDatabase, PeopleAreDeterministicPersonalAndNoisy) {
   EXPECT_LT(errors.mean(), 0.03);
 }
 
+// The stored factors are the ones the shapes were made with: without the personal noise the
+// global factors stay and every personal vertex's motion is the noisy one over (1 + e_ij).
+TEST(ScanDatabase, StoredFactorsAreTheTermsOfTheShapes) {
+  const LinearShapes& t = Template();
+  const std::vector<int> chart = ChartVertices(SmallHead(), MovingVertices(t));
+  const Eigen::MatrixXf alpha = FacsWeights(ParseFacsTable(DefaultFacsTable()), t.names, true);
+  ScanSynthOptions o;
+  o.personal_noise = 0.1f;
+  const ScanPerson noisy = SynthesizeScanPerson(SmallHead(), t, chart, alpha, 2, o);
+  o.personal_noise = 0.f;
+  const ScanPerson clean = SynthesizeScanPerson(SmallHead(), t, chart, alpha, 2, o);
+  const int N = t.NumShapes();
+  ASSERT_EQ(noisy.global_factors.size(), N);
+  ASSERT_EQ(noisy.personal_factors.size(), N);
+  EXPECT_EQ(noisy.global_factors, clean.global_factors);
+  EXPECT_EQ(clean.personal_factors, Eigen::VectorXf::Zero(N));
+  EXPECT_GT(noisy.personal_factors.cwiseAbs().maxCoeff(), 0.02f);
+  EXPECT_GT(noisy.global_factors.maxCoeff() - noisy.global_factors.minCoeff(), 0.1f);
+  for (int i = 0; i < N; ++i) {
+    for (int v : chart) {
+      const Eigen::Vector3f a = noisy.true_deltas.block<3, 1>(3 * v, i);
+      const Eigen::Vector3f b = (1.f + noisy.personal_factors[i]) * clean.true_deltas.block<3, 1>(3 * v, i);
+      ASSERT_LT((a - b).norm(), 1e-5f * (1.f + b.norm())) << "shape " << i << " vertex " << v;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace facecap::assets

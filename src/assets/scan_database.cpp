@@ -50,6 +50,8 @@ ScanPerson SynthesizeScanPerson(const rig::Rig& rig, const LinearShapes& templat
     Rng noise(static_cast<uint64_t>(options.seed) * 31 + 1, static_cast<uint64_t>(person) * 4096 + i);
     personal[i] = static_cast<float>(options.personal_noise * noise.Normal());
   }
+  out.global_factors = global;
+  out.personal_factors = personal;
   const float s = options.personal_strength;
   out.true_deltas = template_shapes.deltas;
   for (int v : personal_vertices) {

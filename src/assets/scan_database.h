@@ -60,6 +60,8 @@ struct ScanPerson {
   Eigen::MatrixXf expressions;    // P_k^j as columns, 3#V by K
   Eigen::MatrixXf true_deltas;    // S_i^j, 3#V by N
   Eigen::MatrixXf true_weights;   // w_ik, K by N
+  Eigen::VectorXf global_factors;    // g_ij, N (no effect on shapes that move no personal vertex)
+  Eigen::VectorXf personal_factors;  // e_ij, N
 };
 
 // Person `person` of the database. rig: the demo head with identity modes (same topology as

@@ -101,6 +101,23 @@ TEST_F(Blendshapes, BaselinesEvalAndInferenceProduceTheTableAndARig) {
     ASSERT_GT(count, 0);
     EXPECT_NEAR(sum / count, number("ours_test"), 1e-3);
   }
+  // analysis/blendshapes_ceiling.py rebuilds every true shape from the stored factors (it exits
+  // 3 when they differ) and scores shapes like eval: its truth and ours rows equal eval's.
+  {
+    const std::string script = "/usr/bin/python3 " + testing::SourceDir() + "/analysis/blendshapes_ceiling.py";
+    auto c = testing::RunCommand(script + " --scans " + Scans() + " --shapes " + shapes + " --json");
+    ASSERT_EQ(c.code, 0) << c.output;
+    auto ceiling = [&](const std::string& key) {
+      const size_t at = c.output.find("\"" + key + "\": ");
+      EXPECT_NE(at, std::string::npos) << key << "\n" << c.output;
+      return at == std::string::npos ? 0.0 : std::stod(c.output.substr(at + key.size() + 4));
+    };
+    EXPECT_NEAR(ceiling("truth"), number("truth_test"), 1e-3);
+    EXPECT_NEAR(ceiling("ours"), number("ours_test"), 1e-3);
+    auto bad = testing::RunCommand(script + " --scans " + baselines);
+    EXPECT_EQ(bad.code, 3) << bad.output;
+    EXPECT_NE(bad.output.find(baselines), std::string::npos) << bad.output;
+  }
   // One neutral mesh to a rig.
   const io::H5File scans = io::H5File::OpenRead(Scans());
   const rig::Rig tmpl = io::ReadRig(scans, "/template");

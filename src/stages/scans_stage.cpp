@@ -7,6 +7,10 @@
 //   /scans/people/neutral [P, V, 3]     /scans/people/expressions [P, K, V, 3] (cm)
 //   /scans/people/split [P] (0 train, 1 held out)
 //   /scans/truth/deltas [P, N, V, 3], /scans/truth/weights [P, K, N]   (synthetic only)
+//   /scans/truth/global_factors [P, N] (g_ij), /scans/truth/personal_factors [P, N] (e_ij),
+//   /scans/truth/personal_vertices [X] (the x where the personal form applies; attribute
+//   personal_strength s): the terms of scan_database.h's S_i^j, for analyses of what a
+//   neutral can predict (analysis/blendshapes_ceiling.py)   (synthetic only)
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -149,6 +153,8 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
     put(p.expressions.data(), p.expressions.size());
     put(p.true_deltas.data(), p.true_deltas.size());
     put(p.true_weights.data(), p.true_weights.size());  // column-major K x N
+    put(p.global_factors.data(), p.global_factors.size());
+    put(p.personal_factors.data(), p.personal_factors.size());
   }
   const auto gathered = comm.Gather(bytes);
   dist::CoordinateExceptions(comm, [&] {
@@ -157,6 +163,10 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
     WriteDatabaseHeader(&f, tmpl, head, table, alpha, P);
     f.CreateFrames<float>("/scans/truth/deltas", {N, V, 3}, P, 1);
     f.CreateFrames<float>("/scans/truth/weights", {K, N}, P, 16);
+    f.CreateFrames<float>("/scans/truth/global_factors", {N}, P, 64);
+    f.CreateFrames<float>("/scans/truth/personal_factors", {N}, P, 64);
+    f.WriteVector<int32_t>("/scans/truth/personal_vertices", personal);
+    f.SetAttribute("/scans/truth/personal_vertices", "personal_strength", static_cast<double>(o.synth.personal_strength));
     std::vector<int32_t> split(P, 0);
     for (int j = P - o.test_people; j < P; ++j) split[j] = 1;
     f.WriteVector<int32_t>("/scans/people/split", split);
@@ -164,7 +174,7 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
     int person = 0;
     for (const auto& chunk : gathered) {
       size_t at = 0;
-      const size_t per_person = sizeof(float) * (3 * V + 3 * V * K + 3 * V * N + K * N);
+      const size_t per_person = sizeof(float) * (3 * V + 3 * V * K + 3 * V * N + K * N + 2 * N);
       for (; at + per_person <= chunk.size(); at += per_person, ++person) {
         const float* d = reinterpret_cast<const float*>(chunk.data() + at);
         f.WriteFrames<float>("/scans/people/neutral", person, 1, d);
@@ -174,6 +184,9 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
         Eigen::Map<const Eigen::MatrixXf> w(d + 3 * V + 3 * V * K + 3 * V * N, K, N);
         Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> wr = w;
         f.WriteFrames<float>("/scans/truth/weights", person, 1, wr.data());
+        const float* factors = d + 3 * V + 3 * V * K + 3 * V * N + K * N;
+        f.WriteFrames<float>("/scans/truth/global_factors", person, 1, factors);
+        f.WriteFrames<float>("/scans/truth/personal_factors", person, 1, factors + N);
       }
     }
     if (person != P) throw ParallelConsistencyError("scans synth: gathered " + std::to_string(person) + " people");
