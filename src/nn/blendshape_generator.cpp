@@ -4,6 +4,7 @@
 #include <mutex>
 
 #include <Eigen/Core>
+#include <Eigen/Eigenvalues>
 #include <torch/torch.h>
 
 #include "util/errors.h"
@@ -158,19 +159,42 @@ TORCH_MODULE(TemplateHead);
 // The output layer starts at zero (a = 0).
 struct AmplitudeImpl : torch::nn::Module {
   static constexpr int kGrid = 16;
-  AmplitudeImpl(int width, int num_shapes) {
-    hidden = register_module("hidden", torch::nn::Linear(3 * kGrid * kGrid, width));
-    output = register_module("output", torch::nn::Linear(width, num_shapes));
+  static constexpr int kFeatures = 3 * kGrid * kGrid;
+  // components > 0: a_i = gain_i tanh(w_i . z + c_i) on z, the whitened principal components
+  // of the pooled image (the basis is set from the training people, see FitAmplitudeBasis):
+  // in the synthetic database g_ij = 1 + 0.25 tanh(c_i . a_j) with a_j linear in the neutral.
+  AmplitudeImpl(int width, int num_shapes, int components) : components(components) {
+    if (components > 0) {
+      output = register_module("output", torch::nn::Linear(components, num_shapes));
+      gain = register_parameter("gain", torch::full({num_shapes}, 0.25f));
+      mean = torch::zeros({kFeatures});
+      basis = torch::zeros({components, kFeatures});
+    } else {
+      hidden = register_module("hidden", torch::nn::Linear(kFeatures, width));
+      output = register_module("output", torch::nn::Linear(width, num_shapes));
+    }
     torch::NoGradGuard no_grad;
     output->weight.zero_();
     output->bias.zero_();
   }
+  // The pooled displacement image [B, kFeatures] of input [B, C, H, W] (first 3 channels).
+  static torch::Tensor Pooled(const torch::Tensor& input) {
+    return F::adaptive_avg_pool2d(input.narrow(1, 0, 3), F::AdaptiveAvgPool2dFuncOptions({kGrid, kGrid})).flatten(1);
+  }
   // input [B, C, H, W] (the first 3 channels: the displacement image) -> a [B, N].
   torch::Tensor forward(const torch::Tensor& input) {
-    const torch::Tensor pooled = F::adaptive_avg_pool2d(input.narrow(1, 0, 3), F::AdaptiveAvgPool2dFuncOptions({kGrid, kGrid}));
-    return output->forward(torch::tanh(hidden->forward(pooled.flatten(1))));
+    const torch::Tensor pooled = Pooled(input);
+    if (components > 0) return gain * torch::tanh(output->forward((pooled - mean).matmul(basis.t())));
+    return output->forward(torch::tanh(hidden->forward(pooled)));
   }
+  // The weight matrices the ridge term amplitude_decay penalizes.
+  torch::Tensor RidgeTerm() const {
+    torch::Tensor sum = output->weight.square().sum();
+    return hidden.is_empty() ? sum : sum + hidden->weight.square().sum();
+  }
+  int components;
   torch::nn::Linear hidden{nullptr}, output{nullptr};
+  torch::Tensor gain, mean, basis;  // gain: parameter; mean, basis: set from the data
 };
 TORCH_MODULE(Amplitude);
 
@@ -185,7 +209,8 @@ struct GeneratorOutput {
 // template_deltas: S_i on the chart vertices, [N, A, 3].
 struct GeneratorImpl : torch::nn::Module {
   GeneratorImpl(int in, int c, int blocks, const std::vector<int>& large, int num_shapes, int head_width,
-                int head_depth, bool head_frame, int amplitude_width, const torch::Tensor& template_deltas)
+                int head_depth, bool head_frame, int amplitude_width, int amplitude_components,
+                const torch::Tensor& template_deltas)
       : channels(c) {
     encoder = register_module("encoder", Encoder(in, c, blocks));
     std::vector<uint8_t> is_large(num_shapes, 0);
@@ -217,7 +242,9 @@ struct GeneratorImpl : torch::nn::Module {
       branch(order_large, "large_head", &heads[0]);
       branch(order_small, "small_head", &heads[1]);
     }
-    if (amplitude_width > 0) amplitude = register_module("amplitude", Amplitude(amplitude_width, num_shapes));
+    if (amplitude_width > 0 || amplitude_components > 0) {
+      amplitude = register_module("amplitude", Amplitude(amplitude_width, num_shapes, amplitude_components));
+    }
   }
   GeneratorOutput forward(const torch::Tensor& x) {
     const torch::Tensor code = encoder->forward(x);
@@ -576,6 +603,7 @@ bool BlendshapeNetOptions::Check(std::string* why) const {
   if (head_width < 0 || head_width > 256) { *why = "head_width must be in [0, 256]"; return false; }
   if (head_depth < 1 || head_depth > 2) { *why = "head_depth must be 1 or 2"; return false; }
   if (amplitude_width < 0 || amplitude_width > 256) { *why = "amplitude_width must be in [0, 256]"; return false; }
+  if (amplitude_components < 0 || amplitude_components > 256) { *why = "amplitude_components must be in [0, 256]"; return false; }
   if (!(learning_rate > 0.f && learning_rate < 1.f)) { *why = "learning_rate must be in (0, 1)"; return false; }
   if (!(reg_weight >= 0.f)) { *why = "reg_weight must be >= 0"; return false; }
   if (!(tuning_reg_weight >= 0.f)) { *why = "tuning_reg_weight must be >= 0"; return false; }
@@ -723,9 +751,10 @@ BlendshapeGenerator::BlendshapeGenerator(const BlendshapeNetOptions& options,
   m.template_deltas = torch::from_blob(const_cast<float*>(g.template_deltas.data()),
                                        {g.num_shapes, g.num_chart_vertices, 3}, f32).clone();
   m.generator = Generator(in, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes, options.head_width,
-                          options.head_depth, options.head_frame, options.amplitude_width, m.template_deltas);
+                          options.head_depth, options.head_frame, options.amplitude_width, options.amplitude_components,
+                          m.template_deltas);
   m.tuning = Generator(in + c, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes, options.head_width,
-                       options.head_depth, options.head_frame, 0, m.template_deltas);
+                       options.head_depth, options.head_frame, 0, 0, m.template_deltas);
   const int branches = (m.generator->has_large ? 1 : 0) + (m.generator->has_small ? 1 : 0);
   m.offsets_in = Conv(branches * c, c, 1);
   m.predictor = WeightPredictor(in, c, g.num_shapes);
@@ -815,8 +844,7 @@ double BlendshapeGenerator::Backward(const std::vector<const BlendshapePerson*>&
   torch::Tensor loss = (rec + omega * regularization).sum() * loss_scale;
   if (stage == TrainingStage::kEstimation && m.options.amplitude_decay > 0.f && !m.generator->amplitude.is_empty()) {
     // The ridge term once per step over the global batch: this share's part, B / global batch.
-    const Amplitude& amp = m.generator->amplitude;
-    const torch::Tensor ridge = amp->hidden->weight.square().sum() + amp->output->weight.square().sum();
+    const torch::Tensor ridge = m.generator->amplitude->RidgeTerm();
     loss = loss + ridge * (m.options.amplitude_decay * static_cast<float>(B) * loss_scale);
   }
   loss.backward();
@@ -886,6 +914,69 @@ void BlendshapeGenerator::SetParameters(const std::vector<float>& parameters) {
     std::copy(parameters.begin() + offset, parameters.begin() + offset + p.numel(), p.data_ptr<float>());
     offset += p.numel();
   }
+}
+
+void BlendshapeGenerator::FitAmplitudeBasis(const std::vector<const BlendshapePerson*>& people) {
+  Impl& m = *impl_;
+  if (m.options.amplitude_components <= 0) return;
+  Amplitude& amplitude = m.generator->amplitude;
+  const int64_t H = m.H(), n = static_cast<int64_t>(people.size()), F = AmplitudeImpl::kFeatures;
+  if (n < 2) throw InvalidInputError("blendshape generator: the amplitude's basis needs at least 2 people");
+  std::vector<float> images;
+  for (const BlendshapePerson* p : people) images.insert(images.end(), p->neutral_image.begin(), p->neutral_image.end());
+  torch::NoGradGuard no_grad;
+  const torch::Tensor pooled = AmplitudeImpl::Pooled(
+      torch::from_blob(images.data(), {n, 3, H, H}, torch::kFloat32)).to(torch::kFloat64).contiguous();
+  Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> x(
+      pooled.data_ptr<double>(), n, F);
+  const Eigen::RowVectorXd mean = x.colwise().mean();
+  const Eigen::MatrixXd centered = x.rowwise() - mean;
+  // Principal components from the n x n Gram matrix: v_k = C^T u_k / s_k, s_k^2 = lambda_k;
+  // whitened so that every component has unit variance over the people: z_k = (x - mean) v_k
+  // sqrt(n) / s_k.
+  // (Plain loops: the same sums in the same order whatever the thread count.)
+  Eigen::MatrixXd gram(n, n);
+  for (int64_t a = 0; a < n; ++a) {
+    for (int64_t b = 0; b <= a; ++b) gram(a, b) = gram(b, a) = centered.row(a).dot(centered.row(b));
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(gram);
+  const int64_t R = m.options.amplitude_components;
+  Eigen::MatrixXf basis = Eigen::MatrixXf::Zero(R, F);
+  const double largest = eigen.eigenvalues().maxCoeff();
+  for (int64_t k = 0; k < std::min(R, n); ++k) {
+    const int64_t column = n - 1 - k;  // eigenvalues ascending
+    const double lambda = eigen.eigenvalues()[column];
+    if (!(lambda > 1e-10 * largest)) break;
+    const Eigen::VectorXd v = centered.transpose() * eigen.eigenvectors().col(column) / std::sqrt(lambda);
+    basis.row(k) = (v * (std::sqrt(static_cast<double>(n)) / std::sqrt(lambda))).transpose().cast<float>();
+  }
+  amplitude->mean = torch::from_blob(const_cast<double*>(mean.data()), {F}, torch::kFloat64).to(torch::kFloat32).clone();
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows = basis;
+  amplitude->basis = torch::from_blob(rows.data(), {R, F}, torch::kFloat32).clone();
+  m.DropInference();
+}
+
+std::vector<float> BlendshapeGenerator::AmplitudeBasis() const {
+  const Impl& m = *impl_;
+  if (m.options.amplitude_components <= 0) return {};
+  const Amplitude& amplitude = m.generator->amplitude;
+  const torch::Tensor all = torch::cat({amplitude->mean.unsqueeze(0), amplitude->basis}, 0).contiguous();
+  return std::vector<float>(all.data_ptr<float>(), all.data_ptr<float>() + all.numel());
+}
+
+void BlendshapeGenerator::SetAmplitudeBasis(const std::vector<float>& basis) {
+  Impl& m = *impl_;
+  const int64_t R = m.options.amplitude_components, F = AmplitudeImpl::kFeatures;
+  if (R <= 0 && basis.empty()) return;
+  if (static_cast<int64_t>(basis.size()) != (R + 1) * F) {
+    throw FileIOError("blendshape generator: the amplitude basis holds " + std::to_string(basis.size()) +
+                      " values, the model needs " + std::to_string((R + 1) * F));
+  }
+  Amplitude& amplitude = m.generator->amplitude;
+  const torch::Tensor all = torch::from_blob(const_cast<float*>(basis.data()), {R + 1, F}, torch::kFloat32).clone();
+  amplitude->mean = all[0].clone();
+  amplitude->basis = all.narrow(0, 1, R).clone();
+  m.DropInference();
 }
 
 std::vector<float> BlendshapeGenerator::State() const {

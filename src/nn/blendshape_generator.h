@@ -30,6 +30,7 @@ struct BlendshapeNetOptions {
   bool head_frame = true;         // heads also in the frame of the template motion (see the .cpp)
   int amplitude_width = 32;       // hidden units of the per-shape amplitude from the whole neutral (0: none)
   bool amplitude_on_path = true;  // the amplitude scales the motion along the template path only
+  int amplitude_components = 0;   // >0: the amplitude reads this many whitened principal components
   float learning_rate = 2e-3f;    // Adam step size
   float reg_weight = 1.f;         // omega_reg of L_G = L_rec + omega_reg L_reg (eq. 7)
   float tuning_reg_weight = 0.1f; // omega_reg_FT of L_G_FT (eq. 9)
@@ -44,6 +45,7 @@ struct BlendshapeNetOptions {
     v("head_depth", head_depth, "hidden layers of the heads, 1 or 2 (both head_width wide)");
     v("head_frame", head_frame, "the heads also see the neutral's displacement along each shape's template motion and output a gain on that motion");
     v("amplitude_width", amplitude_width, "hidden units of the per-shape amplitude a_i predicted from the whole neutral, which scales how far the person moves along each shape (0: none)");
+    v("amplitude_components", amplitude_components, "0: the amplitude is a tanh layer on the pooled neutral image (amplitude_width wide); > 0: it reads that many whitened principal components of the training people's pooled neutral images, one tanh per shape, a_i = b_i tanh(w_i . z + c_i)");
     v("amplitude_on_path", amplitude_on_path, "the amplitude scales only the motion along the template path, (1 + a_i)(S_i + gain S_i), not the heads' free offsets (off: all of S_i + Delta S_i)");
     v("learning_rate", learning_rate, "Adam step size");
     v("reg_weight", reg_weight, "omega_reg: weight of L_reg in the Estimation Stage (eq. 7)");
@@ -108,6 +110,15 @@ class BlendshapeGenerator {
   // Parameters only (what inference needs).
   std::vector<float> Parameters() const;
   void SetParameters(const std::vector<float>& parameters);
+
+  // With amplitude_components > 0: the whitened principal components of the people's pooled
+  // neutral images that the amplitude reads, computed in double from `people` (the training
+  // people: the same arithmetic on the same people gives bitwise the same basis on every rank).
+  // Components beyond the people's rank are zero. Not parameters: a model file stores
+  // AmplitudeBasis() ([components + 1, features]: the mean, then the rows) beside them.
+  void FitAmplitudeBasis(const std::vector<const BlendshapePerson*>& people);
+  std::vector<float> AmplitudeBasis() const;
+  void SetAmplitudeBasis(const std::vector<float>& basis);
 
   // The personalized offsets Delta S_i (eq. 3) for one neutral image [3, H, W]: [N, A, 3]
   // (cm). tuned: Estimation + Tuning generator (the final shapes); else Estimation only.

@@ -13,6 +13,7 @@
 #include <ATen/Context.h>
 #include <gtest/gtest.h>
 
+#include "util/errors.h"
 #include "util/random.h"
 
 namespace facecap::nn {
@@ -178,6 +179,51 @@ TEST(BlendshapeGenerator, SharesOfABatchSumToTheWholeGradientWithTheRidgeTerm) {
   plain.Backward({&a, &b, &c}, TrainingStage::kEstimation, 1.f / 3);
   const std::vector<float> without(plain.GradientBuffer(), plain.GradientBuffer() + n);
   EXPECT_GT(RelativeDifference(without, whole), 1e-3);
+}
+
+// amplitude_components: the basis whitens the fitting people's pooled images (here 16 x 16,
+// the images themselves): zero mean and unit variance on each component up to their rank, zero
+// rows beyond it; a model given the same parameters and the stored basis predicts the same
+// offsets, and the inference form matches the modules.
+TEST(BlendshapeGenerator, PrincipalComponentAmplitudeIsWhitenedAndTravelsWithTheModel) {
+  BlendshapeNetOptions options = SmallNetwork();
+  options.amplitude_components = 8;
+  const auto geometry = RandomGeometry(12, {2, 5, 9}, 25, 5);
+  BlendshapeGenerator model(options, geometry);
+  Perturb(&model, 13);
+  std::vector<BlendshapePerson> people;
+  for (uint64_t seed = 20; seed < 26; ++seed) people.push_back(RandomPerson(12, 25, seed));
+  std::vector<const BlendshapePerson*> pointers;
+  for (const auto& p : people) pointers.push_back(&p);
+  model.FitAmplitudeBasis(pointers);
+  const std::vector<float> basis = model.AmplitudeBasis();
+  const int F = 3 * kSize * kSize, R = options.amplitude_components, n = static_cast<int>(people.size());
+  ASSERT_EQ(basis.size(), static_cast<size_t>((R + 1) * F));
+  for (int k = 0; k < R; ++k) {
+    double sum = 0, square = 0, row = 0;
+    for (int f = 0; f < F; ++f) row += std::abs(basis[(k + 1) * F + f]);
+    for (const auto& p : people) {
+      double z = 0;
+      for (int f = 0; f < F; ++f) z += (p.neutral_image[f] - basis[f]) * basis[(k + 1) * F + f];
+      sum += z;
+      square += z * z;
+    }
+    if (k < n - 1) {  // six people span five directions around their mean
+      EXPECT_NEAR(sum / n, 0.0, 1e-3) << k;
+      EXPECT_NEAR(square / n, 1.0, 1e-3) << k;
+    } else {
+      EXPECT_EQ(row, 0.0) << k;
+    }
+  }
+  const std::vector<float> image = RandomImage(30);
+  const std::vector<float> offsets = model.PredictOffsets(image, true);
+  EXPECT_LT(RelativeDifference(offsets, model.PredictOffsetsWithModules(image, true)), kTolerance);
+  BlendshapeGenerator loaded(options, geometry);
+  loaded.SetParameters(model.Parameters());
+  EXPECT_GT(RelativeDifference(loaded.PredictOffsets(image, true), offsets), 1e-3);  // without the basis
+  loaded.SetAmplitudeBasis(basis);
+  EXPECT_LT(RelativeDifference(loaded.PredictOffsets(image, true), offsets), kTolerance);
+  EXPECT_THROW(loaded.SetAmplitudeBasis(std::vector<float>(F)), FileIOError);
 }
 
 TEST(BlendshapeGenerator, InferenceFromSeveralThreadsMatchesOneThread) {

@@ -289,6 +289,11 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
     p.nominal_weights.assign(a.data(), a.data() + a.size());
   });
   nn::BlendshapeGenerator model(o.net, setup.geometry);
+  {
+    std::vector<const nn::BlendshapePerson*> all;
+    for (const auto& p : people) all.push_back(&p);
+    model.FitAmplitudeBasis(all);  // (amplitude_components > 0 only)
+  }
   const int T = static_cast<int>(train.size());
   const int steps_per_epoch = (T + o.batch - 1) / o.batch;
   const int64_t estimation_steps = static_cast<int64_t>(o.estimation_epochs) * steps_per_epoch;
@@ -392,6 +397,12 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
     f.SetAttribute("/model/parameters", "head_frame", static_cast<int64_t>(o.net.head_frame ? 1 : 0));
     f.SetAttribute("/model/parameters", "head_depth", static_cast<int64_t>(o.net.head_depth));
     f.SetAttribute("/model/parameters", "amplitude_on_path", static_cast<int64_t>(o.net.amplitude_on_path ? 1 : 0));
+    f.SetAttribute("/model/parameters", "amplitude_components", static_cast<int64_t>(o.net.amplitude_components));
+    if (o.net.amplitude_components > 0) {
+      const std::vector<float> basis = model.AmplitudeBasis();  // [components + 1, features]
+      const int64_t rows = o.net.amplitude_components + 1;
+      f.Write<float>("/model/amplitude_basis", {rows, static_cast<int64_t>(basis.size()) / rows}, basis.data());
+    }
     f.SetAttribute("/model/parameters", "input_scale", static_cast<double>(input_scale));
     f.SetAttribute("/model/parameters", "expression_scale", static_cast<double>(expression_scale));
     f.SetAttribute("/model/parameters", "train_seconds", seconds);
@@ -440,10 +451,16 @@ LoadedModel LoadModel(const std::string& path) {
                          f.GetIntAttribute("/model/parameters", "amplitude_on_path") != 0;
   no.amplitude_width = f.HasAttribute("/model/parameters", "amplitude_width")
                            ? static_cast<int>(f.GetIntAttribute("/model/parameters", "amplitude_width")) : 0;
+  no.amplitude_components = f.HasAttribute("/model/parameters", "amplitude_components")
+                                ? static_cast<int>(f.GetIntAttribute("/model/parameters", "amplitude_components")) : 0;
   m.input_scale = static_cast<float>(f.GetDoubleAttribute("/model/parameters", "input_scale"));
   m.setup = MakeNetSetup(m.topology, m.tmpl, size);
   m.model = std::make_unique<nn::BlendshapeGenerator>(no, m.setup.geometry);
   m.model->SetParameters(f.ReadVector<float>("/model/parameters", m.model->NumParameters()));
+  if (no.amplitude_components > 0) {
+    if (!f.Exists("/model/amplitude_basis")) throw FileIOError(path + ": no /model/amplitude_basis for its amplitude_components");
+    m.model->SetAmplitudeBasis(f.Read<float>("/model/amplitude_basis", {}));
+  }
   m.model->PrepareInference();
   return m;
 }

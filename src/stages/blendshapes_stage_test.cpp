@@ -59,6 +59,33 @@ TEST_F(Blendshapes, StoppedTrainingResumesToTheUninterruptedParameters) {
   EXPECT_EQ(Parameters(straight), Parameters(stopped));
 }
 
+// The principal-component amplitude: its basis is recomputed from the training people when a
+// stopped run continues (the same basis, so the same parameters), and the model file carries it
+// to inference.
+TEST_F(Blendshapes, PrincipalComponentAmplitudeResumesAndTravelsInTheModelFile) {
+  const std::string straight = dir_->File("pca_straight.h5"), stopped = dir_->File("pca_stopped.h5");
+  const std::string flags = " --amplitude-components 3";
+  ASSERT_EQ(RunFacecap(Train(straight) + flags).code, 0);
+  auto stop = RunFacecap(Train(stopped) + flags, 0, "FACECAP_FAULT_AFTER_STEPS=3");
+  EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
+  auto rerun = RunFacecap(Train(stopped) + flags);
+  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  EXPECT_EQ(Parameters(straight), Parameters(stopped));
+  const io::H5File f = io::H5File::OpenRead(straight);
+  io::Shape shape;
+  f.Read<float>("/model/amplitude_basis", {}, &shape);
+  EXPECT_EQ(shape, (io::Shape{4, 768}));
+  const io::H5File scans = io::H5File::OpenRead(Scans());
+  const rig::Rig tmpl = io::ReadRig(scans, "/template");
+  rig::Vertices neutral(tmpl.NumVertices(), 3);
+  scans.ReadFrames<float>("/scans/people/neutral", 4, 1, neutral.data());
+  const std::string obj = dir_->File("pca_neutral.obj"), rig = dir_->File("pca_rig.h5");
+  io::ExportMeshObj(neutral, tmpl.triangles, nullptr, nullptr, obj);
+  auto i = RunFacecap("blendshapes infer --model " + straight + " --neutral " + obj + " --out " + rig);
+  ASSERT_EQ(i.code, 0) << i.output;
+  EXPECT_EQ(io::ReadRigFile(rig).NumShapes(), 55);
+}
+
 TEST_F(Blendshapes, BaselinesEvalAndInferenceProduceTheTableAndARig) {
   const std::string model = dir_->File("model.h5"), baselines = dir_->File("baselines.h5");
   ASSERT_EQ(RunFacecap(Train(model)).code, 0);
