@@ -49,6 +49,7 @@ BlendshapeNetOptions SmallNetwork() {
   BlendshapeNetOptions o;
   o.channels = 4;
   o.residual_blocks = 2;
+  o.amplitude_components = 0;  // the pooled-image amplitude (the tests of the other one set it)
   return o;
 }
 
