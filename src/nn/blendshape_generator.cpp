@@ -96,17 +96,23 @@ TORCH_MODULE(Decoder);
 // itself, adding gain S_i(x) (a person moving a point further or less along the same path).
 // depth 2 adds a second hidden layer of the same width: one ReLU layer leaves jawOpen's
 // personal pattern a few percent of its motion off even on the training people.
+// With `local` (frame heads only), the free offset is given in a frame built from the template
+// motion and the neutral's displacement d(x) at the point, |S_i(x)| (o_1 S_i(x) / |S_i(x)| +
+// o_2 d(x) + o_3 (S_i(x) / |S_i(x)|) x d(x)), and the hidden layer also sees |d(x)|: the head
+// then maps scalars that do not change when the face turns (|d|, d . S_i / |S_i|, the
+// features) to scalars, instead of building directions out of ReLUs.
 struct TemplateHeadImpl : torch::nn::Module {
   // deltas: the branch's template motion S_i(x), [S, A, 3]; sigma: the RMS template motion;
   // displacement: the first of the 3 feature columns that hold the neutral's displacement.
   TemplateHeadImpl(int features, int width, int depth, const torch::Tensor& deltas, double sigma, bool frame,
-                   int64_t displacement)
-      : shapes(deltas.size(0)), vertices(deltas.size(1)), frame(frame), displacement(displacement) {
+                   int64_t displacement, bool local)
+      : shapes(deltas.size(0)), vertices(deltas.size(1)), frame(frame), local(frame && local), displacement(displacement) {
     from_features = register_module("features", torch::nn::Linear(features, width));
     from_motion = register_module("motion", torch::nn::Linear(torch::nn::LinearOptions(4, width).bias(false)));
     output = register_module("output", torch::nn::Linear(width, frame ? 4 : 3));
     if (frame) from_along = register_module("along", torch::nn::Linear(torch::nn::LinearOptions(1, width).bias(false)));
     if (depth > 1) second = register_module("second", torch::nn::Linear(width, width));
+    if (this->local) from_norm = register_module("norm", torch::nn::Linear(torch::nn::LinearOptions(1, width).bias(false)));
     torch::NoGradGuard no_grad;
     output->weight.zero_();
     output->bias.zero_();
@@ -125,27 +131,35 @@ struct TemplateHeadImpl : torch::nn::Module {
   std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& features) {
     torch::Tensor hidden = from_features->forward(features).index_select(1, pair_vertex) +
                            from_motion->forward(motion).unsqueeze(0);  // [B, P, width]
+    torch::Tensor d;  // the neutral's displacement at each pair's vertex [B, P, 3] (frame heads)
     if (frame) {
-      const torch::Tensor d = features.narrow(2, displacement, 3).index_select(1, pair_vertex);  // [B, P, 3]
+      d = features.narrow(2, displacement, 3).index_select(1, pair_vertex);
       hidden = hidden + from_along->forward((d * direction).sum(-1, true));
+      if (local) hidden = hidden + from_norm->forward(d.norm(2, -1, true));
     }
     hidden = torch::relu(hidden);
     if (!second.is_empty()) hidden = torch::relu(second->forward(hidden));
     const torch::Tensor out = output->forward(hidden);
+    torch::Tensor free = out.narrow(2, 0, 3);
+    if (local) {
+      const torch::Tensor t = direction.unsqueeze(0).expand_as(d);
+      free = out.narrow(2, 0, 1) * t + out.narrow(2, 1, 1) * d + out.narrow(2, 2, 1) * torch::cross(t, d, -1);
+    }
     const int64_t B = features.size(0);
     auto scatter = [&](const torch::Tensor& values) {  // [B, P, 3] -> [B, S, A, 3]
       return torch::zeros({B, shapes * vertices, 3}, values.options()).index_add(1, pairs, values)
           .reshape({B, shapes, vertices, 3});
     };
-    return {scatter(out.narrow(2, 0, 3) * magnitude), frame ? scatter(out.narrow(2, 3, 1) * pair_deltas) : torch::Tensor()};
+    return {scatter(free * magnitude), frame ? scatter(out.narrow(2, 3, 1) * pair_deltas) : torch::Tensor()};
   }
   int64_t shapes, vertices;
-  bool frame;
+  bool frame, local;
   int64_t displacement;
   // The moving pairs s A + x, their x, S_s(x), |S_s(x)|, S_s(x) / |S_s(x)|, the motion input.
   torch::Tensor pairs, pair_vertex, pair_deltas, magnitude, direction, motion;
   torch::nn::Linear from_features{nullptr}, from_motion{nullptr}, output{nullptr}, from_along{nullptr};
   torch::nn::Linear second{nullptr};  // the second hidden layer (head_depth 2)
+  torch::nn::Linear from_norm{nullptr};  // |d(x)| into the hidden layer (local frame)
 };
 TORCH_MODULE(TemplateHead);
 
@@ -209,8 +223,8 @@ struct GeneratorOutput {
 // template_deltas: S_i on the chart vertices, [N, A, 3].
 struct GeneratorImpl : torch::nn::Module {
   GeneratorImpl(int in, int c, int blocks, const std::vector<int>& large, int num_shapes, int head_width,
-                int head_depth, bool head_frame, int amplitude_width, int amplitude_components,
-                const torch::Tensor& template_deltas)
+                int head_depth, bool head_frame, bool head_local_frame, int amplitude_width,
+                int amplitude_components, const torch::Tensor& template_deltas)
       : channels(c) {
     encoder = register_module("encoder", Encoder(in, c, blocks));
     std::vector<uint8_t> is_large(num_shapes, 0);
@@ -237,7 +251,7 @@ struct GeneratorImpl : torch::nn::Module {
         if (order.empty()) return;
         const torch::Tensor deltas = template_deltas.index_select(0, torch::tensor(order, torch::kLong));
         // The head's features: the branch's c decoder features, then the input (displacement first).
-        *head = register_module(name, TemplateHead(c + in, head_width, head_depth, deltas, sigma, head_frame, c));
+        *head = register_module(name, TemplateHead(c + in, head_width, head_depth, deltas, sigma, head_frame, c, head_local_frame));
       };
       branch(order_large, "large_head", &heads[0]);
       branch(order_small, "small_head", &heads[1]);
@@ -510,6 +524,7 @@ struct FastHeads {
     Eigen::VectorXf second_bias;
     Eigen::VectorXf output_bias;
     Eigen::VectorXf along;          // [width]: weights of d . direction (frame heads)
+    Eigen::VectorXf norm;           // [width]: weights of |d| (local frame heads; empty: none)
     Eigen::MatrixXf deltas, direction;   // [3, P]: S_i(x) and its direction (frame heads)
     std::vector<int64_t> vertex, shape;  // per pair: chart vertex, shape (shape order)
     std::vector<float> magnitude;        // per pair: |S_i(x)|
@@ -543,6 +558,7 @@ struct FastHeads {
       h.displacement = t.displacement;
       if (t.frame) {
         h.along = matrix(t.from_along->weight);
+        if (t.local) h.norm = matrix(t.from_norm->weight);
         h.deltas = matrix(t.pair_deltas.t());
         h.direction = matrix(t.direction.t());
       }
@@ -572,10 +588,12 @@ struct FastHeads {
       for (size_t p = 0; p < h.vertex.size(); ++p) {
         const int64_t v = h.vertex[p];
         hidden = per_vertex.col(v) + h.motion.col(p);
+        const Eigen::Vector3f d = h.frame ? Eigen::Vector3f(x(h.displacement, v), x(h.displacement + 1, v),
+                                                            x(h.displacement + 2, v))
+                                          : Eigen::Vector3f::Zero();
         if (h.frame) {
-          const float along = x(h.displacement, v) * h.direction(0, p) + x(h.displacement + 1, v) * h.direction(1, p) +
-                              x(h.displacement + 2, v) * h.direction(2, p);
-          hidden += along * h.along;
+          hidden += d.dot(h.direction.col(p)) * h.along;
+          if (h.norm.size() > 0) hidden += d.norm() * h.norm;
         }
         hidden = hidden.cwiseMax(0.f);
         if (h.second.size() > 0) {
@@ -585,7 +603,13 @@ struct FastHeads {
         o.noalias() = h.output * hidden;
         o += h.output_bias;
         float* y = out + (h.shape[p] * A + v) * 3;
-        for (int c = 0; c < 3; ++c) y[c] += o[c] * h.magnitude[p];
+        if (h.norm.size() > 0) {
+          const Eigen::Vector3f t = h.direction.col(p);
+          const Eigen::Vector3f free = o[0] * t + o[1] * d + o[2] * t.cross(d);
+          for (int c = 0; c < 3; ++c) y[c] += free[c] * h.magnitude[p];
+        } else {
+          for (int c = 0; c < 3; ++c) y[c] += o[c] * h.magnitude[p];
+        }
         if (h.frame) {
           float* z = along_out + (h.shape[p] * A + v) * 3;
           for (int c = 0; c < 3; ++c) z[c] += o[3] * h.deltas(c, p);
@@ -751,10 +775,11 @@ BlendshapeGenerator::BlendshapeGenerator(const BlendshapeNetOptions& options,
   m.template_deltas = torch::from_blob(const_cast<float*>(g.template_deltas.data()),
                                        {g.num_shapes, g.num_chart_vertices, 3}, f32).clone();
   m.generator = Generator(in, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes, options.head_width,
-                          options.head_depth, options.head_frame, options.amplitude_width, options.amplitude_components,
+                          options.head_depth, options.head_frame, options.head_local_frame, options.amplitude_width,
+                          options.amplitude_components,
                           m.template_deltas);
   m.tuning = Generator(in + c, c, options.residual_blocks, g.large_motion_shapes, g.num_shapes, options.head_width,
-                       options.head_depth, options.head_frame, 0, 0, m.template_deltas);
+                       options.head_depth, options.head_frame, options.head_local_frame, 0, 0, m.template_deltas);
   const int branches = (m.generator->has_large ? 1 : 0) + (m.generator->has_small ? 1 : 0);
   m.offsets_in = Conv(branches * c, c, 1);
   m.predictor = WeightPredictor(in, c, g.num_shapes);

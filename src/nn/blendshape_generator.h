@@ -28,6 +28,8 @@ struct BlendshapeNetOptions {
   int head_width = 32;            // hidden units of the template-conditioned heads (0: none)
   int head_depth = 2;             // hidden layers of the heads (1 or 2; models without the attribute: 1)
   bool head_frame = true;         // heads also in the frame of the template motion (see the .cpp)
+  bool head_local_frame = true;   // the heads' free offsets in the frame of the motion and the displacement
+                                  // (models without the attribute: off)
   int amplitude_width = 32;       // hidden units of the pooled-image amplitude (amplitude_components 0; both 0: none)
   bool amplitude_on_path = true;  // the amplitude scales the motion along the template path only
   int amplitude_components = 24;  // >0: the amplitude reads this many whitened principal components
@@ -45,6 +47,7 @@ struct BlendshapeNetOptions {
     v("head_width", head_width, "hidden units of the output head that conditions each shape's offsets on its template motion (0: 1x1 output convolutions only)");
     v("head_depth", head_depth, "hidden layers of the heads, 1 or 2 (both head_width wide)");
     v("head_frame", head_frame, "the heads also see the neutral's displacement along each shape's template motion and output a gain on that motion");
+    v("head_local_frame", head_local_frame, "with head_frame: the heads give their free offsets in a frame built from each shape's template motion and the neutral's displacement at the point (along the motion, along the displacement, across both) and also see the displacement's length, so they map rotation-invariant scalars to scalars");
     v("amplitude_width", amplitude_width, "hidden units of the per-shape amplitude a_i predicted from the whole neutral, which scales how far the person moves along each shape (used when amplitude_components is 0; both 0: no amplitude)");
     v("amplitude_components", amplitude_components, "0: the amplitude is a tanh layer on the pooled neutral image (amplitude_width wide); > 0: it reads that many whitened principal components of the training people's pooled neutral images, one tanh per shape, a_i = b_i tanh(w_i . z + c_i)");
     v("amplitude_on_path", amplitude_on_path, "the amplitude scales only the motion along the template path, (1 + a_i)(S_i + gain S_i), not the heads' free offsets (off: all of S_i + Delta S_i)");

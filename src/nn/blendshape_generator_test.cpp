@@ -98,13 +98,15 @@ constexpr double kTolerance = 1e-5;
 // (Also for the networks of older models: one hidden layer in the heads, the amplitude on all
 // offsets, heads without the motion frame, no amplitude.)
 TEST(BlendshapeGenerator, InferenceFormMatchesTheModulesWithAndWithoutTuning) {
-  struct Case { int shapes; std::vector<int> large; bool frame; int amplitude; bool on_path; int depth; };
+  struct Case { int shapes; std::vector<int> large; bool frame; int amplitude; bool on_path; int depth; bool local = false; };
   for (const Case& c : {Case{20, {3, 7, 1, 12, 18}, true, 32, true, 2}, Case{9, {0, 1, 2, 3, 4, 5, 6, 7}, true, 8, true, 2},
+                        Case{20, {3, 7, 1, 12, 18}, true, 32, true, 2, true},
                         Case{20, {3, 7, 1, 12, 18}, true, 32, true, 1}, Case{20, {3, 7, 1, 12, 18}, true, 32, false, 1},
                         Case{20, {3, 7, 1, 12, 18}, false, 16, true, 1}, Case{20, {3, 7, 1, 12, 18}, false, 0, false, 1}}) {
     BlendshapeNetOptions options = SmallNetwork();
     options.head_depth = c.depth;
     options.head_frame = c.frame;
+    options.head_local_frame = c.local;
     options.amplitude_width = c.amplitude;
     options.amplitude_on_path = c.on_path;
     BlendshapeGenerator model(options, RandomGeometry(c.shapes, c.large, 37, c.shapes));
@@ -116,7 +118,7 @@ TEST(BlendshapeGenerator, InferenceFormMatchesTheModulesWithAndWithoutTuning) {
         ASSERT_EQ(fast.size(), static_cast<size_t>(c.shapes) * 37 * 3);
         EXPECT_LT(RelativeDifference(fast, model.PredictOffsetsWithModules(image, tuned)), kTolerance)
             << c.shapes << " shapes, depth " << c.depth << ", frame " << c.frame << ", amplitude " << c.amplitude << ", on path " << c.on_path
-            << ", tuned " << tuned;
+            << ", local frame " << c.local << ", tuned " << tuned;
       }
     }
   }

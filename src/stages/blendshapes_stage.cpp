@@ -4,8 +4,9 @@
 //
 // bsgen.h5: /template (rig.h5 layout: S_0 and the template shapes S_i), /model/parameters
 // (the networks' parameters, attributes: image_size, channels, residual_blocks, head_width,
-// head_depth, head_frame, amplitude_width, amplitude_on_path, input_scale, expression_scale),
-// /checkpoint/state while training (parameters, Adam moments, steps).
+// head_depth, head_frame, head_local_frame, amplitude_width, amplitude_on_path,
+// amplitude_components, input_scale, expression_scale; /model/amplitude_basis with
+// amplitude_components), /checkpoint/state while training (parameters, Adam moments, steps).
 // baselines.h5: /baselines/template/deltas and /baselines/example_based/deltas [P, N, V, 3].
 // eval --shapes: /shapes/ours/deltas, /shapes/ours_estimation/deltas [P, N, V, 3] (cm),
 // /errors/<method> [P, K] (mm, per scan), /errors/split [P].
@@ -396,6 +397,7 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
     f.SetAttribute("/model/parameters", "amplitude_width", static_cast<int64_t>(o.net.amplitude_width));
     f.SetAttribute("/model/parameters", "head_frame", static_cast<int64_t>(o.net.head_frame ? 1 : 0));
     f.SetAttribute("/model/parameters", "head_depth", static_cast<int64_t>(o.net.head_depth));
+    f.SetAttribute("/model/parameters", "head_local_frame", static_cast<int64_t>(o.net.head_local_frame ? 1 : 0));
     f.SetAttribute("/model/parameters", "amplitude_on_path", static_cast<int64_t>(o.net.amplitude_on_path ? 1 : 0));
     f.SetAttribute("/model/parameters", "amplitude_components", static_cast<int64_t>(o.net.amplitude_components));
     if (o.net.amplitude_components > 0) {
@@ -447,6 +449,8 @@ LoadedModel LoadModel(const std::string& path) {
                   f.GetIntAttribute("/model/parameters", "head_frame") != 0;
   no.head_depth = f.HasAttribute("/model/parameters", "head_depth")
                       ? static_cast<int>(f.GetIntAttribute("/model/parameters", "head_depth")) : 1;
+  no.head_local_frame = f.HasAttribute("/model/parameters", "head_local_frame") &&
+                        f.GetIntAttribute("/model/parameters", "head_local_frame") != 0;
   no.amplitude_on_path = f.HasAttribute("/model/parameters", "amplitude_on_path") &&
                          f.GetIntAttribute("/model/parameters", "amplitude_on_path") != 0;
   no.amplitude_width = f.HasAttribute("/model/parameters", "amplitude_width")
