@@ -19,6 +19,9 @@ PACKAGES=(
   build-essential cmake ninja-build pkg-config git
   # parallelism and numerics
   openmpi-bin libopenmpi-dev libeigen3-dev
+  # the BLAS under libtorch's linear layers (preferred over ATLAS or the reference BLAS through
+  # Debian's alternatives); its OpenMP build follows each rank's thread count
+  libopenblas0-openmp
   # data, images, video, meshes
   libhdf5-openmpi-dev hdf5-tools libopenimageio-dev openimageio-tools
   libopencv-dev ffmpeg libassimp-dev
