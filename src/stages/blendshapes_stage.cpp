@@ -6,7 +6,9 @@
 // (the networks' parameters, attributes: image_size, channels, residual_blocks, head_width,
 // head_depth, head_frame, head_local_frame, amplitude_width, amplitude_on_path,
 // amplitude_components, input_scale, expression_scale; /model/amplitude_basis with
-// amplitude_components), /checkpoint/state while training (parameters, Adam moments, steps).
+// amplitude_components), /checkpoint/state while training (parameters, Adam moments, steps), and
+// /checkpoint/average (double: the sum of the parameters so far over the averaged steps) inside
+// a stage's averaged steps (average_fraction).
 // baselines.h5: /baselines/template/deltas and /baselines/example_based/deltas [P, N, V, 3].
 // eval --shapes: /shapes/ours/deltas, /shapes/ours_estimation/deltas [P, N, V, 3] (cm),
 // /errors/<method> [P, K] (mm, per scan), /errors/split [P].
@@ -199,6 +201,7 @@ struct BlendshapesTrainOptions {
   int threads = 0;                    // tensor threads per rank (0: the cores divided among ranks)
   int seed = 1;                       // batch order seed
   float nominal_weight = 1.f;         // the weight of a FACS table's 1 in training
+  float average_fraction = 0.f;       // each stage ends with the mean of its last steps' parameters
   nn::BlendshapeNetOptions net;       // networks and losses
 
   template <class V>
@@ -216,6 +219,9 @@ struct BlendshapesTrainOptions {
       "the weight a FACS table's 1 stands for in training: the Estimation Stage's weights and the "
       "weight predictor's start (captured expressions are rarely at full intensity; the shapes "
       "are then learnt at the intensity they have at weight 1, not at the scans' mean)");
+    v("average_fraction", average_fraction,
+      "each stage ends with the parameters averaged over this last fraction of its steps "
+      "(iterate averaging: what the step size's noise adds to the parameters averages out; 0: the last step's)");
     net.Visit(v);
   }
   bool Check(std::string* why) const {
@@ -226,6 +232,7 @@ struct BlendshapesTrainOptions {
     if (checkpoint_every < 1) { *why = "checkpoint_every must be >= 1"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
     if (!(nominal_weight > 0.f && nominal_weight <= 1.f)) { *why = "nominal_weight must be in (0, 1]"; return false; }
+    if (!(average_fraction >= 0.f && average_fraction < 1.f)) { *why = "average_fraction must be in [0, 1)"; return false; }
     return net.Check(why);
   }
 };
@@ -305,6 +312,9 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
   int up_to_date = 0;
   int64_t start_step = 0;
   std::vector<float> state_vector;
+  // The running sum of the parameters over the averaged steps of the current stage (empty
+  // outside them), in double: the same on every rank and after a resume.
+  std::vector<double> average;
   dist::CoordinateExceptions(comm, [&] {
     if (!comm.IsMainRank()) return;
     output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "blendshapes train", resolved));
@@ -312,6 +322,9 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
     if (!up_to_date && output.resumed && output.file.Exists("/checkpoint/state")) {
       state_vector = output.file.ReadVector<float>("/checkpoint/state", 3 * model.NumParameters() + 2);
       start_step = output.file.GetIntAttribute("/checkpoint/state", "step");
+      if (output.file.Exists("/checkpoint/average")) {
+        average = output.file.ReadVector<double>("/checkpoint/average", model.NumParameters());
+      }
       FC_INFO("blendshapes train: continuing {} from step {} of {}", io::H5File::PartialPath(o.out), start_step, total_steps);
     }
   });
@@ -322,12 +335,18 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
   }
   comm.Broadcast(&start_step, sizeof(start_step));
   comm.Broadcast(&state_vector);
+  comm.Broadcast(&average);
   if (!state_vector.empty()) model.SetState(state_vector);
   auto write_checkpoint = [&](int64_t step) {
     dist::CoordinateExceptions(comm, [&] {
       if (!comm.IsMainRank()) return;
       output.file.WriteVector<float>("/checkpoint/state", model.State());
       output.file.SetAttribute("/checkpoint/state", "step", static_cast<int64_t>(step));
+      if (!average.empty()) {
+        output.file.WriteVector<double>("/checkpoint/average", average);
+      } else if (output.file.Exists("/checkpoint/average")) {
+        output.file.Remove("/checkpoint/average");
+      }
       output.file.Flush();
     });
   };
@@ -356,6 +375,21 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
     comm.SumReduce(model.GradientBuffer(), model.NumParameters());
     comm.SumReduce(sums, 2);
     model.OptimizerStep(stage);
+    // Iterate averaging over the stage's last average_fraction of steps; at the stage's end the
+    // model takes the mean (the other stage's parameters are constant meanwhile).
+    const int64_t stage_steps = stage == nn::TrainingStage::kEstimation ? estimation_steps : total_steps - estimation_steps;
+    const int64_t averaged = static_cast<int64_t>(std::floor(o.average_fraction * static_cast<double>(stage_steps)));
+    if (averaged > 1 && stage_step >= stage_steps - averaged) {
+      const std::vector<float> now = model.Parameters();
+      if (average.empty()) average.assign(now.size(), 0.0);
+      for (size_t k = 0; k < now.size(); ++k) average[k] += now[k];
+      if (stage_step + 1 == stage_steps) {
+        std::vector<float> mean(now.size());
+        for (size_t k = 0; k < now.size(); ++k) mean[k] = static_cast<float>(average[k] / static_cast<double>(averaged));
+        model.SetParameters(mean);
+        average.clear();
+      }
+    }
     loss_sum += sums[0];
     rec_sum += sums[1] / (end - begin);
     const int64_t done = step + 1;

@@ -1,6 +1,8 @@
 // facecap scans / blendshapes end to end on a tiny database: training on 2 and 3 ranks keeps
 // the parameters identical across ranks, a stopped training resumes to the uninterrupted
 // result, and the comparison prints its JSON and infers a rig.
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -90,6 +92,40 @@ TEST_F(Blendshapes, PrincipalComponentAmplitudeResumesAndTravelsInTheModelFile) 
   EXPECT_EQ(shape, (io::Shape{4, 768}));
   rig::Vertices neutral;
   EXPECT_EQ(InferRig(straight, "pca", &neutral).NumShapes(), 55);
+}
+
+// Iterate averaging (average_fraction): the Estimation Stage of 4 steps at fraction 0.5 ends on
+// the mean of the parameters after steps 3 and 4, and a run stopped between them resumes to
+// the uninterrupted result.
+TEST_F(Blendshapes, IterateAveragingEndsOnTheMeanAndResumes) {
+  auto train = [](const std::string& out, bool averaged) {
+    std::string command = Train(out) + (averaged ? " --average-fraction 0.5" : "");
+    const std::string tuning = "--tuning-epochs 1";
+    return command.replace(command.find(tuning), tuning.size(), "--tuning-epochs 0");
+  };
+  const std::string last = dir_->File("avg_last.h5"), third = dir_->File("avg_third.h5");
+  const std::string mean = dir_->File("avg_mean.h5"), resumed = dir_->File("avg_resumed.h5");
+  ASSERT_EQ(RunFacecap(train(last, false)).code, 0);
+  ASSERT_EQ(RunFacecap(train(third, false), 0, "FACECAP_FAULT_AFTER_STEPS=3").code, kExitInterrupted);
+  ASSERT_EQ(RunFacecap(train(mean, true)).code, 0);
+  const std::vector<float> p4 = Parameters(last), averaged = Parameters(mean);
+  const std::vector<float> state = io::H5File::OpenRead(io::H5File::PartialPath(third)).ReadVector<float>("/checkpoint/state");
+  ASSERT_EQ(averaged.size(), p4.size());
+  ASSERT_GT(state.size(), p4.size());
+  double worst = 0, moved = 0;
+  for (size_t k = 0; k < p4.size(); ++k) {
+    const double expected = 0.5 * (static_cast<double>(state[k]) + p4[k]);
+    worst = std::max(worst, std::abs(averaged[k] - expected) / (1e-3 + std::abs(expected)));
+    moved = std::max(moved, std::abs(static_cast<double>(state[k]) - p4[k]));
+  }
+  EXPECT_GT(moved, 1e-4);  // the two iterates differ, so the mean is not either of them
+  EXPECT_LT(worst, 1e-5);
+  auto stop = RunFacecap(train(resumed, true), 0, "FACECAP_FAULT_AFTER_STEPS=3");
+  EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
+  EXPECT_TRUE(io::H5File::OpenRead(io::H5File::PartialPath(resumed)).Exists("/checkpoint/average"));
+  auto rerun = RunFacecap(train(resumed, true));
+  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  EXPECT_EQ(Parameters(resumed), averaged);
 }
 
 TEST_F(Blendshapes, BaselinesEvalAndInferenceProduceTheTableAndARig) {
