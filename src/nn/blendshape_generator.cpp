@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <mutex>
+#include <unordered_map>
 
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
@@ -129,11 +130,15 @@ struct TemplateHeadImpl : torch::nn::Module {
   // the free part |S_i(x)| out(x) and the part along the motion, gain S_i(x) (undefined
   // without the frame).
   std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& features) {
-    torch::Tensor hidden = from_features->forward(features).index_select(1, pair_vertex) +
+    // Advanced indexing on the inner dimension rather than index_select / index_add: libtorch's
+    // CPU index_add over a non-leading dimension runs one strided add per index (thousands of
+    // pairs), while indexing and its accumulating backward run in one element loop.
+    using torch::indexing::Slice;
+    torch::Tensor hidden = from_features->forward(features).index({Slice(), pair_vertex}) +
                            from_motion->forward(motion).unsqueeze(0);  // [B, P, width]
     torch::Tensor d;  // the neutral's displacement at each pair's vertex [B, P, 3] (frame heads)
     if (frame) {
-      d = features.narrow(2, displacement, 3).index_select(1, pair_vertex);
+      d = features.narrow(2, displacement, 3).index({Slice(), pair_vertex});
       hidden = hidden + from_along->forward((d * direction).sum(-1, true));
       if (local) hidden = hidden + from_norm->forward(d.norm(2, -1, true));
     }
@@ -146,8 +151,8 @@ struct TemplateHeadImpl : torch::nn::Module {
       free = out.narrow(2, 0, 1) * t + out.narrow(2, 1, 1) * d + out.narrow(2, 2, 1) * torch::cross(t, d, -1);
     }
     const int64_t B = features.size(0);
-    auto scatter = [&](const torch::Tensor& values) {  // [B, P, 3] -> [B, S, A, 3]
-      return torch::zeros({B, shapes * vertices, 3}, values.options()).index_add(1, pairs, values)
+    auto scatter = [&](const torch::Tensor& values) {  // [B, P, 3] -> [B, S, A, 3] (pairs are distinct)
+      return torch::zeros({B, shapes * vertices, 3}, values.options()).index_put_({Slice(), pairs}, values)
           .reshape({B, shapes, vertices, 3});
     };
     return {scatter(free * magnitude), frame ? scatter(out.narrow(2, 3, 1) * pair_deltas) : torch::Tensor()};
@@ -664,7 +669,8 @@ struct BlendshapeGenerator::Impl {
   // [B, C, H, W] -> [B, C, A]: bilinear samples at the chart vertices.
   torch::Tensor SampleChannels(const torch::Tensor& image) const {
     const int64_t B = image.size(0), C = image.size(1);
-    torch::Tensor flat = image.reshape({B, C, H() * H()}).index_select(2, sample_pixels);
+    using torch::indexing::Slice;
+    torch::Tensor flat = image.reshape({B, C, H() * H()}).index({Slice(), Slice(), sample_pixels});
     return (flat.reshape({B, C, A(), 4}) * sample_weights).sum(-1);
   }
   // A generator's offsets Delta S_i at the chart vertices, [B, N, A, 3]: its output image
@@ -746,9 +752,36 @@ struct BlendshapeGenerator::Impl {
     inference = std::move(f);
     return inference;
   }
-  void DropInference() {
+  // generator_changed: the Estimation networks' parameters (or the amplitude basis) may have
+  // changed, so their cached per-person outputs go too.
+  void DropInference(bool generator_changed = true) {
     std::lock_guard<std::mutex> lock(inference_mutex);
     inference.reset();
+    if (generator_changed) estimation_cache.clear();
+  }
+
+  // What the Tuning Stage reads from the fixed Estimation networks for one person: their
+  // decoder features [1, F, H, W], amplitude [1, N] and initial offsets [1, N, A, 3]. They do
+  // not change while the Tuning Stage trains, so each person's are computed once (alone, so
+  // they do not depend on the batch the person comes in) instead of at every step.
+  struct EstimationEntry {
+    std::vector<float> neutral_image;  // the key's content, checked on every lookup
+    torch::Tensor features, amplitude, initial;
+  };
+  std::unordered_map<const BlendshapePerson*, EstimationEntry> estimation_cache;
+  const EstimationEntry& Estimation(const BlendshapePerson& person) {
+    auto it = estimation_cache.find(&person);
+    if (it != estimation_cache.end() && it->second.neutral_image == person.neutral_image) return it->second;
+    torch::NoGradGuard no_grad;
+    EstimationEntry e;
+    e.neutral_image = person.neutral_image;
+    const torch::Tensor input =
+        WithStatic(torch::from_blob(e.neutral_image.data(), {1, 3, H(), H()}, torch::kFloat32));
+    const GeneratorOutput out = generator->forward(input);
+    e.amplitude = AmplitudeOf(input);
+    e.initial = Amplified(Offsets(generator, out), e.amplitude);
+    e.features = out.features;
+    return estimation_cache[&person] = std::move(e);
   }
 };
 
@@ -846,10 +879,16 @@ double BlendshapeGenerator::Backward(const std::vector<const BlendshapePerson*>&
     GeneratorOutput estimation;
     torch::Tensor initial, amplitude;
     {
-      torch::NoGradGuard no_grad;
-      estimation = m.generator->forward(input);
-      amplitude = m.AmplitudeOf(input);
-      initial = m.Amplified(m.Offsets(m.generator, estimation), amplitude);
+      std::vector<torch::Tensor> features, amplitudes, initials;
+      for (const BlendshapePerson* p : batch) {
+        const Impl::EstimationEntry& e = m.Estimation(*p);
+        features.push_back(e.features);
+        amplitudes.push_back(e.amplitude);
+        initials.push_back(e.initial);
+      }
+      estimation.features = torch::cat(features, 0);
+      amplitude = torch::cat(amplitudes, 0);
+      initial = torch::cat(initials, 0);
     }
     // The Tuning generator's output joins the Estimation offsets before the amplitude:
     // (1 + a)(S + E + T) - S = Delta S_i + (1 + a) T (on the path only: T's along part scaled).
@@ -897,7 +936,7 @@ void BlendshapeGenerator::OptimizerStep(TrainingStage stage) {
   const size_t begin = stage == TrainingStage::kEstimation ? 0 : m.estimation_end;
   const size_t end = stage == TrainingStage::kEstimation ? m.estimation_end : m.parameters.size();
   int64_t offset = 0;
-  m.DropInference();
+  m.DropInference(stage == TrainingStage::kEstimation);
   torch::NoGradGuard no_grad;
   for (size_t k = 0; k < m.parameters.size(); ++k) {
     torch::Tensor& p = m.parameters[k];

@@ -229,6 +229,48 @@ TEST(BlendshapeGenerator, PrincipalComponentAmplitudeIsWhitenedAndTravelsWithThe
   EXPECT_THROW(loaded.SetAmplitudeBasis(std::vector<float>(F)), FileIOError);
 }
 
+// The Tuning Stage computes each person's Estimation outputs once and reuses them while the
+// Estimation networks stay fixed: its gradient must equal that of a model given the same
+// parameters afresh, after a Tuning step (which keeps them), after an Estimation step and a
+// new amplitude basis (which change them), and for a person whose neutral changed in place.
+TEST(BlendshapeGenerator, TuningStageReusesEstimationOutputsOnlyWhileTheyHold) {
+  BlendshapeNetOptions options = SmallNetwork();
+  options.amplitude_components = 4;
+  const auto geometry = RandomGeometry(12, {2, 5, 9}, 25, 6);
+  BlendshapeGenerator model(options, geometry);
+  Perturb(&model, 14);
+  BlendshapePerson a = RandomPerson(12, 25, 1), b = RandomPerson(12, 25, 2);
+  const BlendshapePerson c = RandomPerson(12, 25, 3);
+  model.FitAmplitudeBasis({&a, &b, &c});
+  const int64_t n = model.NumParameters();
+  auto tuning_gradient = [&](BlendshapeGenerator& m) {
+    m.Backward({&a, &b}, TrainingStage::kTuning, 0.5f);
+    return std::vector<float>(m.GradientBuffer(), m.GradientBuffer() + n);
+  };
+  auto fresh_gradient = [&] {
+    BlendshapeGenerator fresh(options, geometry);
+    fresh.SetParameters(model.Parameters());
+    fresh.SetAmplitudeBasis(model.AmplitudeBasis());
+    return tuning_gradient(fresh);
+  };
+  const std::vector<float> first = tuning_gradient(model);
+  EXPECT_EQ(tuning_gradient(model), first);  // from the stored outputs
+  EXPECT_EQ(fresh_gradient(), first);
+  model.OptimizerStep(TrainingStage::kTuning);
+  EXPECT_EQ(tuning_gradient(model), fresh_gradient());
+  model.Backward({&c}, TrainingStage::kEstimation, 1.f);
+  model.OptimizerStep(TrainingStage::kEstimation);
+  const std::vector<float> stepped = tuning_gradient(model);
+  EXPECT_EQ(stepped, fresh_gradient());
+  EXPECT_GT(RelativeDifference(stepped, first), 1e-4);
+  model.FitAmplitudeBasis({&a, &c});
+  EXPECT_EQ(tuning_gradient(model), fresh_gradient());
+  a.neutral_image = RandomImage(40);
+  const std::vector<float> changed = tuning_gradient(model);
+  EXPECT_EQ(changed, fresh_gradient());
+  EXPECT_GT(RelativeDifference(changed, stepped), 1e-4);
+}
+
 TEST(BlendshapeGenerator, InferenceFromSeveralThreadsMatchesOneThread) {
   BlendshapeGenerator model(SmallNetwork(), RandomGeometry(15, {0, 4, 8, 11}, 30, 7));
   Perturb(&model, 8);
