@@ -1,5 +1,6 @@
 #include "nn/blendshape_generator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 #include <unordered_map>
@@ -637,6 +638,7 @@ bool BlendshapeNetOptions::Check(std::string* why) const {
   if (!(reg_weight >= 0.f)) { *why = "reg_weight must be >= 0"; return false; }
   if (!(tuning_reg_weight >= 0.f)) { *why = "tuning_reg_weight must be >= 0"; return false; }
   if (!(amplitude_decay >= 0.f)) { *why = "amplitude_decay must be >= 0"; return false; }
+  if (!(weight_decay >= 0.f)) { *why = "weight_decay must be >= 0"; return false; }
   return true;
 }
 
@@ -652,6 +654,7 @@ struct BlendshapeGenerator::Impl {
   torch::nn::Conv2d offsets_in{nullptr};  // Estimation decoder features -> c channels (tuning input)
   WeightPredictor predictor{nullptr};
   std::vector<torch::Tensor> parameters;
+  std::vector<uint8_t> decays;         // per parameter: shrunk by weight_decay (weight matrices)
   int64_t estimation_end = 0;          // parameters [0, estimation_end) are the generator's
   int64_t num_parameters = 0;
   std::vector<float> gradient, adam_m, adam_v;
@@ -822,6 +825,15 @@ BlendshapeGenerator::BlendshapeGenerator(const BlendshapeNetOptions& options,
   for (auto& p : m.offsets_in->parameters()) m.parameters.push_back(p);
   for (auto& p : m.predictor->parameters()) m.parameters.push_back(p);
   for (auto& p : m.parameters) m.num_parameters += p.numel();
+  std::vector<const void*> amplitude_parameters;
+  if (!m.generator->amplitude.is_empty()) {
+    for (auto& p : m.generator->amplitude->parameters()) amplitude_parameters.push_back(p.unsafeGetTensorImpl());
+  }
+  for (auto& p : m.parameters) {
+    const bool amplitude = std::find(amplitude_parameters.begin(), amplitude_parameters.end(),
+                                     p.unsafeGetTensorImpl()) != amplitude_parameters.end();
+    m.decays.push_back(p.dim() >= 2 && !amplitude ? 1 : 0);
+  }
   m.gradient.assign(m.num_parameters, 0.f);
   m.adam_m.assign(m.num_parameters, 0.f);
   m.adam_v.assign(m.num_parameters, 0.f);
@@ -943,13 +955,14 @@ void BlendshapeGenerator::OptimizerStep(TrainingStage stage) {
     const int64_t n = p.numel();
     if (k >= begin && k < end) {
       float* data = p.data_ptr<float>();
+      const double keep = m.decays[k] ? 1.0 - lr * m.options.weight_decay : 1.0;  // AdamW's decoupled decay
       for (int64_t j = 0; j < n; ++j) {
         const int64_t i = offset + j;
         const double g = m.gradient[i];
         m.adam_m[i] = static_cast<float>(beta1 * m.adam_m[i] + (1 - beta1) * g);
         m.adam_v[i] = static_cast<float>(beta2 * m.adam_v[i] + (1 - beta2) * g * g);
         const double mhat = m.adam_m[i] / correction1, vhat = m.adam_v[i] / correction2;
-        data[j] = static_cast<float>(data[j] - lr * mhat / (std::sqrt(vhat) + eps));
+        data[j] = static_cast<float>(keep * data[j] - lr * mhat / (std::sqrt(vhat) + eps));
       }
     }
     offset += n;

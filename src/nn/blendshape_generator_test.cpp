@@ -184,6 +184,60 @@ TEST(BlendshapeGenerator, SharesOfABatchSumToTheWholeGradientWithTheRidgeTerm) {
   EXPECT_GT(RelativeDifference(without, whole), 1e-3);
 }
 
+// weight_decay (AdamW's decoupled form): with a zero gradient, Adam moves nothing and a step
+// only shrinks the weight matrices of the stage in training by 1 - learning_rate x weight_decay;
+// biases, the amplitude and the other stage's parameters stay bitwise, and without the decay the
+// step changes nothing at all.
+TEST(BlendshapeGenerator, WeightDecayShrinksOnlyTheWeightMatricesOfTheStageInTraining) {
+  BlendshapeNetOptions options = SmallNetwork();
+  options.learning_rate = 0.01f;
+  options.weight_decay = 0.5f;
+  const auto geometry = RandomGeometry(12, {2, 5, 9}, 25, 6);
+  const float keep = 1.f - 0.01f * 0.5f;
+  std::vector<uint8_t> decayed[2];
+  for (TrainingStage stage : {TrainingStage::kEstimation, TrainingStage::kTuning}) {
+    BlendshapeGenerator model(options, geometry);
+    Perturb(&model, 14);
+    const std::vector<float> before = model.Parameters();
+    model.Backward({}, stage, 1.f);  // an empty share: a zero gradient
+    model.OptimizerStep(stage);
+    const std::vector<float> after = model.Parameters();
+    std::vector<uint8_t>& d = decayed[stage == TrainingStage::kEstimation ? 0 : 1];
+    for (size_t i = 0; i < before.size(); ++i) {
+      const bool same = after[i] == before[i];
+      const bool shrunk = std::abs(after[i] - keep * before[i]) <= 1e-6f * std::abs(before[i]);
+      ASSERT_TRUE(same || shrunk) << "parameter " << i << ": " << before[i] << " -> " << after[i];
+      d.push_back(!same);
+    }
+    EXPECT_GT(std::count(d.begin(), d.end(), 1), 100);
+    EXPECT_GT(std::count(d.begin(), d.end(), 0), 10);  // the biases at least
+  }
+  for (size_t i = 0; i < decayed[0].size(); ++i) {
+    EXPECT_FALSE(decayed[0][i] && decayed[1][i]) << "parameter " << i << " decayed in both stages";
+  }
+  // The amplitude's weight matrices are not decayed (amplitude_decay covers them): without an
+  // amplitude the model has fewer parameters but as many decayed ones.
+  BlendshapeNetOptions no_amplitude = options;
+  no_amplitude.amplitude_width = 0;
+  BlendshapeGenerator smaller(no_amplitude, geometry);
+  Perturb(&smaller, 14);
+  const std::vector<float> first = smaller.Parameters();
+  smaller.Backward({}, TrainingStage::kEstimation, 1.f);
+  smaller.OptimizerStep(TrainingStage::kEstimation);
+  const std::vector<float> second = smaller.Parameters();
+  ASSERT_LT(first.size(), decayed[0].size());
+  int64_t changed = 0;
+  for (size_t i = 0; i < first.size(); ++i) changed += first[i] != second[i] ? 1 : 0;
+  EXPECT_EQ(changed, std::count(decayed[0].begin(), decayed[0].end(), 1));
+  options.weight_decay = 0.f;
+  BlendshapeGenerator plain(options, geometry);
+  Perturb(&plain, 14);
+  const std::vector<float> before = plain.Parameters();
+  plain.Backward({}, TrainingStage::kEstimation, 1.f);
+  plain.OptimizerStep(TrainingStage::kEstimation);
+  EXPECT_EQ(plain.Parameters(), before);
+}
+
 // amplitude_components: the basis whitens the fitting people's pooled images (here 16 x 16,
 // the images themselves): zero mean and unit variance on each component up to their rank, zero
 // rows beyond it; a model given the same parameters and the stored basis predicts the same
