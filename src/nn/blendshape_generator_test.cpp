@@ -193,15 +193,20 @@ TEST(BlendshapeGenerator, WeightDecayShrinksOnlyTheWeightMatricesOfTheStageInTra
   options.learning_rate = 0.01f;
   options.weight_decay = 0.5f;
   const auto geometry = RandomGeometry(12, {2, 5, 9}, 25, 6);
+  // One step of `stage` on a zero gradient (an empty share): the parameters before and after.
+  auto zero_gradient_step = [&](const BlendshapeNetOptions& o, TrainingStage stage) {
+    BlendshapeGenerator model(o, geometry);
+    Perturb(&model, 14);
+    std::pair<std::vector<float>, std::vector<float>> before_after{model.Parameters(), {}};
+    model.Backward({}, stage, 1.f);
+    model.OptimizerStep(stage);
+    before_after.second = model.Parameters();
+    return before_after;
+  };
   const float keep = 1.f - 0.01f * 0.5f;
   std::vector<uint8_t> decayed[2];
   for (TrainingStage stage : {TrainingStage::kEstimation, TrainingStage::kTuning}) {
-    BlendshapeGenerator model(options, geometry);
-    Perturb(&model, 14);
-    const std::vector<float> before = model.Parameters();
-    model.Backward({}, stage, 1.f);  // an empty share: a zero gradient
-    model.OptimizerStep(stage);
-    const std::vector<float> after = model.Parameters();
+    const auto [before, after] = zero_gradient_step(options, stage);
     std::vector<uint8_t>& d = decayed[stage == TrainingStage::kEstimation ? 0 : 1];
     for (size_t i = 0; i < before.size(); ++i) {
       const bool same = after[i] == before[i];
@@ -219,23 +224,15 @@ TEST(BlendshapeGenerator, WeightDecayShrinksOnlyTheWeightMatricesOfTheStageInTra
   // amplitude the model has fewer parameters but as many decayed ones.
   BlendshapeNetOptions no_amplitude = options;
   no_amplitude.amplitude_width = 0;
-  BlendshapeGenerator smaller(no_amplitude, geometry);
-  Perturb(&smaller, 14);
-  const std::vector<float> first = smaller.Parameters();
-  smaller.Backward({}, TrainingStage::kEstimation, 1.f);
-  smaller.OptimizerStep(TrainingStage::kEstimation);
-  const std::vector<float> second = smaller.Parameters();
+  const auto [first, second] = zero_gradient_step(no_amplitude, TrainingStage::kEstimation);
   ASSERT_LT(first.size(), decayed[0].size());
   int64_t changed = 0;
   for (size_t i = 0; i < first.size(); ++i) changed += first[i] != second[i] ? 1 : 0;
   EXPECT_EQ(changed, std::count(decayed[0].begin(), decayed[0].end(), 1));
+  // Without the decay a zero gradient changes nothing.
   options.weight_decay = 0.f;
-  BlendshapeGenerator plain(options, geometry);
-  Perturb(&plain, 14);
-  const std::vector<float> before = plain.Parameters();
-  plain.Backward({}, TrainingStage::kEstimation, 1.f);
-  plain.OptimizerStep(TrainingStage::kEstimation);
-  EXPECT_EQ(plain.Parameters(), before);
+  const auto [plain_before, plain_after] = zero_gradient_step(options, TrainingStage::kEstimation);
+  EXPECT_EQ(plain_after, plain_before);
 }
 
 // amplitude_components: the basis whitens the fitting people's pooled images (here 16 x 16,
