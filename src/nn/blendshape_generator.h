@@ -56,7 +56,7 @@ struct BlendshapeNetOptions {
     v("reg_weight", reg_weight, "omega_reg: weight of L_reg in the Estimation Stage (eq. 7)");
     v("tuning_reg_weight", tuning_reg_weight, "omega_reg_FT: weight of L_reg_FT in the Tuning Stage (eq. 9)");
     v("amplitude_decay", amplitude_decay, "ridge penalty lambda |W|^2 on the amplitude network's weight matrices (its few training people fit it by heart without one)");
-    v("weight_decay", weight_decay, "decoupled weight decay (AdamW): each step shrinks the convolution and linear weight matrices of the stage in training by learning_rate x weight_decay (not the biases, nor the amplitude, which amplitude_decay covers)");
+    v("weight_decay", weight_decay, "decoupled weight decay (AdamW): each step multiplies the convolution and linear weight matrices of the stage in training by 1 - learning_rate x weight_decay (not the biases, nor the amplitude, which amplitude_decay covers)");
     v("net_seed", seed, "parameter initialization seed");
   }
   bool Check(std::string* why) const;
