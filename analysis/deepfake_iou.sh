@@ -13,7 +13,7 @@
 # `deepfake train --paired`; default 0: none), PAIRED_PEOPLE (how many such people, up to 6;
 # default 1),
 # EXTRA (more `deepfake train` flags). The training budget is turned into a step count by a
-# short timed run that the long run then continues. Ends with the IoU per region and the
+# short timed run of its own before the long run. Ends with the IoU per region and the
 # tracking of the held-out clip through its translations (pose, weight and landmark errors).
 set -euo pipefail
 
@@ -57,20 +57,26 @@ if [[ "${PAIRED_FRAMES:-0}" -gt 0 ]]; then
   paired=(--paired "$(IFS=,; echo "${paired[*]}")")
 fi
 train=("${facecap}" deepfake train --a samples.h5 --b clip_train.h5 --size "${size}"
-       --checkpoint-every 500 --preview-every 500 --out deepfake.h5 "${paired[@]}" ${EXTRA:-})
-# A short timed run gives the rate; the long run continues it up to the budget. The rate of
-# a short run runs ahead of a long run's on this class of machine (5.0 against 4.2
-# steps/s over 20 minutes at batch 8), hence the 0.85.
-"${mpi[@]}" "${train[@]}" --steps 60 --progress-seconds 1 2>&1 | tee timing.log | tail -n 2
+       --checkpoint-every 500 --preview-every 500 "${paired[@]}" ${EXTRA:-})
+if [[ -f deepfake.h5 ]]; then
+  echo "deepfake_iou.sh: ${work_dir}/deepfake.h5 was trained before; use a new WORK_DIR" >&2
+  exit 1
+fi
+# A short timed run of its own gives the rate (a schedule such as decay_fraction depends on
+# the step count, so the long run starts from nothing). The rate of a short run runs ahead of
+# a long run's on this class of machine (5.0 against 4.2 steps/s over 20 minutes at batch 8),
+# hence the 0.85.
+"${mpi[@]}" "${train[@]}" --out timing.h5 --steps 60 --progress-seconds 1 2>&1 | tee timing.log | tail -n 2
+rm -f timing.h5 timing_preview.png
 rate="$(grep -o '[0-9.]* steps/s' timing.log | tail -n 1 | cut -d' ' -f1 || true)"
 if [[ -z "${rate}" ]]; then
-  echo "deepfake_iou.sh: ${work_dir}/deepfake.h5 was trained before (no rate measured); use a new WORK_DIR" >&2
+  echo "deepfake_iou.sh: the timing run measured no rate (see ${work_dir}/timing.log)" >&2
   exit 1
 fi
 steps="$(awk -v r="${rate}" -v m="${minutes}" 'BEGIN { s = int(r * m * 60 * 0.85); print (s < 60 ? 60 : s) }')"
 echo "# ${rate} steps/s -> ${steps} steps"
 start=$(date +%s)
-"${mpi[@]}" "${train[@]}" --steps "${steps}" --progress-seconds 30 2>&1 | tee train.log | { grep -E "step [0-9]+/|model written|up to date" || true; } | tail -n 3
+"${mpi[@]}" "${train[@]}" --out deepfake.h5 --steps "${steps}" --progress-seconds 30 2>&1 | tee train.log | { grep -E "step [0-9]+/|model written|up to date" || true; } | tail -n 3
 echo "# training took $(( $(date +%s) - start )) s"
 "${mpi[@]}" "${facecap}" deepfake infer --model deepfake.h5 --frames clip_heldout.h5 \
   --out translated.h5 --overlay-count 6 >/dev/null 2>&1

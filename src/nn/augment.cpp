@@ -16,6 +16,10 @@ bool AugmentOptions::Check(std::string* why) const {
   if (scale < 0 || scale > 0.5f) { *why = "scale must be in [0, 0.5]"; return false; }
   if (shift < 0 || shift > 0.5f) { *why = "shift must be in [0, 0.5]"; return false; }
   if (color_jitter < 0 || color_jitter > 1) { *why = "color_jitter must be in [0, 1]"; return false; }
+  if (!(random_background >= 0 && random_background <= 1)) {
+    *why = "random_background must be in [0, 1]";
+    return false;
+  }
   if (!(randomize_a >= 0 && randomize_a <= 1)) { *why = "randomize_a must be in [0, 1]"; return false; }
   return true;
 }
@@ -44,6 +48,17 @@ inline void Sample(const uint8_t* image, int n, float x, float y, float* rgb) {
     const float bottom = p10[c] + fx * (p11[c] - p10[c]);
     rgb[c] = (top + fy * (bottom - top)) * (1.f / 255.f);
   }
+}
+
+// Nearest sample (the pixel whose centre is nearest (x, y), edges clamped): a segmentation's
+// labels must not blend, since a blend of two region colours is often nearer a third region's
+// colour than either (skin and background make hair or a lower eyelid, neck and background
+// the mouth interior), and a target blended so teaches thin false regions along every border.
+inline void SampleNearest(const uint8_t* image, int n, float x, float y, float* rgb) {
+  const int xi = std::clamp(static_cast<int>(std::floor(x + 0.5f)), 0, n - 1);
+  const int yi = std::clamp(static_cast<int>(std::floor(y + 0.5f)), 0, n - 1);
+  const uint8_t* p = image + (static_cast<size_t>(yi) * n + xi) * 3;
+  for (int c = 0; c < 3; ++c) rgb[c] = p[c] * (1.f / 255.f);
 }
 
 // Bilinear interpolation of a grid x grid field at normalized (u, v) in [0, 1].
@@ -156,7 +171,11 @@ void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentO
       const float wx = nx + Field(warp_x, grid, u, v), wy = ny + Field(warp_y, grid, u, v);
       float sx, sy;
       to_source(warp_target ? wx : nx, warp_target ? wy : ny, &sx, &sy);
-      Sample(image, source_size, sx, sy, target + k);
+      if (kind == PairKind::kCamera) {
+        Sample(image, source_size, sx, sy, target + k);
+      } else {
+        SampleNearest(image, source_size, sx, sy, target + k);  // a segmentation
+      }
       to_source(wx, wy, &sx, &sy);
       Sample(input_image, source_size, sx, sy, input + k);
       for (int c = 0; c < 3; ++c) {
@@ -278,6 +297,48 @@ void RepaintSegmentation(const uint8_t* image, int size, const SegmentationPalet
         out[k + ch] = static_cast<uint8_t>(std::clamp(std::lround(255.f * value), 0L, 255L));
       }
     }
+  }
+}
+
+std::vector<uint8_t> BorderBackgroundMask(const uint8_t* segmentation, int size) {
+  const int n = size * size;
+  std::vector<uint8_t> mask(n, 0);
+  auto black = [&](int i) {
+    const uint8_t* p = segmentation + 3 * i;
+    return p[0] <= 8 && p[1] <= 8 && p[2] <= 8;
+  };
+  std::vector<int> stack;
+  auto seed = [&](int i) {
+    if (!mask[i] && black(i)) {
+      mask[i] = 1;
+      stack.push_back(i);
+    }
+  };
+  for (int t = 0; t < size; ++t) {
+    seed(t);
+    seed((size - 1) * size + t);
+    seed(t * size);
+    seed(t * size + size - 1);
+  }
+  while (!stack.empty()) {
+    const int i = stack.back();
+    stack.pop_back();
+    const int x = i % size, y = i / size;
+    if (x > 0) seed(i - 1);
+    if (x + 1 < size) seed(i + 1);
+    if (y > 0) seed(i - size);
+    if (y + 1 < size) seed(i + size);
+  }
+  return mask;
+}
+
+void ReplaceBackground(const uint8_t* image, const uint8_t* background,
+                       const std::vector<uint8_t>& mask, int size, uint8_t* out) {
+  for (int i = 0; i < size * size; ++i) {
+    const uint8_t* from = mask[i] ? background + 3 * i : image + 3 * i;
+    out[3 * i] = from[0];
+    out[3 * i + 1] = from[1];
+    out[3 * i + 2] = from[2];
   }
 }
 

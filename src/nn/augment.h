@@ -34,6 +34,12 @@ struct AugmentOptions {
   // E sees real-looking inputs in both domains (domain randomization of the synthetic side).
   // 0 is the plain setting of paper 000.
   float randomize_a = 0.f;
+  // Probability that a paired camera frame's background (the black pixels of its segmentation
+  // that reach the image border) is replaced by another one, drawn from a bank of random
+  // procedural backgrounds (gradients, blurred blobs, stripes) through the camera's
+  // degradations. A paired clip has the one background of its scene, and a network that has
+  // seen one background takes the dark parts of another for mouth interior or hair. 0: off.
+  float random_background = 0.f;
 
   template <class V>
   void Visit(V&& v) {
@@ -53,6 +59,9 @@ struct AugmentOptions {
     v("randomize_a", randomize_a,
       "probability that a domain-A input is repainted with random skin-like appearance "
       "(its target stays the flat segmentation); 0: the plain setting");
+    v("random_background", random_background,
+      "probability that a paired camera frame's background is replaced by a random procedural "
+      "one (0: never)");
   }
   bool Check(std::string* why) const;
 };
@@ -84,7 +93,8 @@ enum class PairKind {
 };
 
 // From one uint8 RGB image [source_size, source_size, 3], writes `input` and `target` as float
-// RGB in [0, 1], [size, size, 3] (resampled bilinearly when the sizes differ), under a random
+// RGB in [0, 1], [size, size, 3] (resampled bilinearly, except a segmentation target, which is
+// sampled nearest: its labels must not blend), under a random
 // similarity transform shared by both, a flip, and a warp and a colour jitter placed by `kind`.
 // With `input_image` (same size as `image`), the input is sampled from it instead (a repainted
 // segmentation render, see RepaintSegmentation, or the camera frame of kPairedCamera).
@@ -114,6 +124,15 @@ struct SegmentationPalette {
 // nearest palette colour's appearance. Writes uint8 RGB [size, size, 3] into `out`.
 void RepaintSegmentation(const uint8_t* image, int size, const SegmentationPalette& palette,
                          Rng* rng, uint8_t* out);
+
+// The background of a segmentation render (uint8 RGB [size, size, 3]) as a mask [size, size]
+// (1: background): its black pixels (every channel at most 8) connected to the image border,
+// so that a black region inside the face (the pupil) is not background.
+std::vector<uint8_t> BorderBackgroundMask(const uint8_t* segmentation, int size);
+
+// `image` with the pixels of `mask` taken from `background` (all uint8 RGB [size, size, 3]).
+void ReplaceBackground(const uint8_t* image, const uint8_t* background,
+                       const std::vector<uint8_t>& mask, int size, uint8_t* out);
 
 // Bilinear resampling of a uint8 RGB image to size x size floats in [0, 1] (no augmentation).
 void ResizeToFloat(const uint8_t* image, int source_size, int size, float* out);

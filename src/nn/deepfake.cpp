@@ -57,13 +57,14 @@ struct EncoderNetImpl : torch::nn::Module {
 TORCH_MODULE(EncoderNet);
 
 // D_A, D_B: a 3x3 convolution from the code, then per level a nearest 2x upsampling and a 3x3
-// convolution (channels halving down to decoder_width), and a 3x3 convolution to RGB in [0, 1].
+// convolution (channels halving down to decoder_width), and a 3x3 convolution to RGB in [0, 1]
+// or, with a palette head (`colors` > 0), to per-pixel logits over the palette's colours.
 // With skips > 0, the upsampled features of the `skips` finest encoder levels are concatenated
 // with the encoder's features of the same resolution before the convolution (a U-Net).
 // `width` is the channels of the last level (decoder_width for D_A, decoder_b_width for D_B).
 struct DecoderNetImpl : torch::nn::Module {
-  DecoderNetImpl(const DeepfakeNetworkOptions& o, int width)
-      : levels(Log2(o.size / o.latent_resolution)), skips(o.skips) {
+  DecoderNetImpl(const DeepfakeNetworkOptions& o, int width, int colors = 0)
+      : levels(Log2(o.size / o.latent_resolution)), skips(o.skips), colors(colors) {
     int in = width << (levels - 1);
     input = register_module("in", Conv(o.latent_channels, in, 3, 1, 1));
     for (int l = levels - 1; l >= 0; --l) {
@@ -74,9 +75,12 @@ struct DecoderNetImpl : torch::nn::Module {
       up.push_back(register_module("up" + std::to_string(k), Conv(in + extra, out, 3, 1, 1)));
       in = out;
     }
-    rgb = register_module("rgb", Conv(in, 3, 3, 1, 1));
+    rgb = register_module("rgb", Conv(in, colors > 0 ? colors : 3, 3, 1, 1));
+    // The palette as a 1x1 convolution from K probabilities to RGB (a buffer, not a parameter).
+    if (colors > 0) palette = register_buffer("palette", torch::zeros({3, colors, 1, 1}));
   }
-  torch::Tensor forward(const std::vector<torch::Tensor>& encoded) {
+  // The image in [0, 1]; with a palette head also its logits [B, K, H, W] in `logits`.
+  torch::Tensor forward(const std::vector<torch::Tensor>& encoded, torch::Tensor* logits = nullptr) {
     torch::Tensor x = torch::leaky_relu(input->forward(encoded.back()), 0.1);
     for (int k = 0; k < levels; ++k) {
       x = torch::upsample_nearest2d(x, {x.size(2) * 2, x.size(3) * 2});
@@ -84,9 +88,19 @@ struct DecoderNetImpl : torch::nn::Module {
       if (skip_level >= 0 && skip_level < skips) x = torch::cat({x, encoded[skip_level]}, 1);
       x = torch::leaky_relu(up[k]->forward(x), 0.1);
     }
-    return torch::sigmoid(rgb->forward(x));
+    const torch::Tensor y = rgb->forward(x);
+    if (colors == 0) return torch::sigmoid(y);
+    if (logits) *logits = y;
+    return torch::conv2d(torch::softmax(y, 1), palette);
   }
-  int levels, skips;
+  // The colour of each pixel's most likely region.
+  torch::Tensor Labels(const torch::Tensor& logits) const {
+    const torch::Tensor onehot =
+        torch::zeros_like(logits).scatter_(1, logits.argmax(1, true), 1.0);
+    return torch::conv2d(onehot, palette);
+  }
+  int levels, skips, colors;
+  torch::Tensor palette;
   torch::nn::Conv2d input{nullptr}, rgb{nullptr};
   std::vector<torch::nn::Conv2d> up;
 };
@@ -163,6 +177,10 @@ bool DeepfakeNetworkOptions::Check(std::string* why) const {
   }
   if (encoder_width < 1 || decoder_width < 1 || discriminator_width < 1 || latent_channels < 1) {
     *why = "encoder_width, decoder_width, discriminator_width and latent_channels must be positive";
+    return false;
+  }
+  if (palette_colors < 0 || palette_colors == 1 || palette_colors > 256) {
+    *why = "palette_colors must be 0 (an RGB head) or in [2, 256]";
     return false;
   }
   if (decoder_b_width < 0) {
@@ -282,7 +300,7 @@ DeepfakeModel::DeepfakeModel(const DeepfakeNetworkOptions& options, uint64_t ini
   }
   torch::manual_seed(init_seed);
   m.encoder = EncoderNet(options);
-  m.decoder_a = DecoderNet(options, options.decoder_width);
+  m.decoder_a = DecoderNet(options, options.decoder_width, options.palette_colors);
   m.decoder_b = DecoderNet(options, options.decoder_b_width > 0 ? options.decoder_b_width
                                                                 : options.decoder_width);
   m.image_discriminator = MakeImageDiscriminator(options);
@@ -334,6 +352,18 @@ void DeepfakeModel::ParametersToHost() {
   if (!impl_->on_cpu()) impl_->host.copy_(impl_->flat);
 }
 
+void DeepfakeModel::SetPalette(const std::vector<float>& colors) {
+  const int k = impl_->options.palette_colors;
+  if (k == 0) return;
+  if (colors.size() != 3 * static_cast<size_t>(k)) {
+    throw InvalidInputError("deepfake: the palette head has " + std::to_string(k) +
+                            " colours, the palette given has " + std::to_string(colors.size() / 3));
+  }
+  torch::NoGradGuard no_grad;
+  const torch::Tensor c = torch::tensor(colors, torch::kFloat32).view({k, 3});
+  impl_->decoder_a->palette.copy_(c.t().reshape({3, k, 1, 1}).to(impl_->device));
+}
+
 uint64_t DeepfakeModel::ParameterHash() {
   ParametersToHost();
   const auto* bytes = reinterpret_cast<const uint8_t*>(parameters());
@@ -355,8 +385,16 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
   const torch::Tensor x = FromBytes(images, count, size, m.device);
   const std::vector<torch::Tensor> encoded = m.encoder->forward(x);
   const torch::Tensor& z = encoded.back();
-  const torch::Tensor y =
-      (decoder == DeepfakeModel::Decoder::kA ? m.decoder_a : m.decoder_b)->forward(encoded);
+  torch::Tensor y;
+  if (decoder == DeepfakeModel::Decoder::kB) {
+    y = m.decoder_b->forward(encoded);
+  } else if (m.options.palette_colors == 0) {
+    y = m.decoder_a->forward(encoded);
+  } else {
+    torch::Tensor logits;
+    m.decoder_a->forward(encoded, &logits);
+    y = m.decoder_a->Labels(logits);
+  }
   const int64_t latent = m.options.LatentSize();
   if (translated) {
     const torch::Tensor bytes = ToBytes(y);
@@ -493,7 +531,8 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     const std::vector<torch::Tensor> encoded_b = m.encoder->forward(input_b);
     const torch::Tensor& code_a = encoded_a.back();                // E(I_A)
     const torch::Tensor& code_b = encoded_b.back();                // E(I_B)
-    const torch::Tensor recon_a = m.decoder_a->forward(encoded_a);  // D_A(E(I_A))
+    torch::Tensor logits_a;                                                     // palette head
+    const torch::Tensor recon_a = m.decoder_a->forward(encoded_a, &logits_a);  // D_A(E(I_A))
     const torch::Tensor recon_b = m.decoder_b->forward(encoded_b);  // D_B(E(I_B))
 
     auto reconstruction = [&](const torch::Tensor& y, const torch::Tensor& x) {
@@ -525,7 +564,8 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
         pixel_weights = t.palette_weights.index({labels});            // [B, H, W]
       }
       if (w.palette_weight > 0) {
-        const torch::Tensor log_p = torch::log_softmax(-distances(recon_a) / w.palette_temperature, 1);
+        const torch::Tensor log_p = torch::log_softmax(
+            logits_a.defined() ? logits_a : -distances(recon_a) / w.palette_temperature, 1);
         const torch::Tensor nll = -log_p.gather(1, labels.unsqueeze(1)).squeeze(1);
         palette_loss = (nll * pixel_weights).mean();
       }
@@ -584,7 +624,7 @@ void DeepfakeTrainer::SetPalette(const std::vector<float>& colors, const std::ve
   impl_->palette_weights = torch::tensor(weights, torch::kFloat32).to(device);
 }
 
-void DeepfakeTrainer::OptimizerStep() {
+void DeepfakeTrainer::OptimizerStep(double learning_rate_scale) {
   Impl& t = *impl_;
   DeepfakeModel::Impl& m = t.m();
   torch::NoGradGuard no_grad;
@@ -596,8 +636,9 @@ void DeepfakeTrainer::OptimizerStep() {
   const int64_t n = m.flat.numel(), g = m.generator_count;
   // Adam, the generators (E, D_A, D_B) and the discriminators with their own learning rates.
   for (const auto& [begin, count, lr] :
-       {std::tuple<int64_t, int64_t, double>{0, g, t.losses.learning_rate},
-        std::tuple<int64_t, int64_t, double>{g, n - g, t.losses.discriminator_learning_rate}}) {
+       {std::tuple<int64_t, int64_t, double>{0, g, t.losses.learning_rate * learning_rate_scale},
+        std::tuple<int64_t, int64_t, double>{g, n - g,
+                                             t.losses.discriminator_learning_rate * learning_rate_scale}}) {
     if (count == 0) continue;
     torch::Tensor p = m.flat.narrow(0, begin, count);
     torch::Tensor grad = t.gradients.narrow(0, begin, count);

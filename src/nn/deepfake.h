@@ -43,6 +43,14 @@ struct DeepfakeNetworkOptions {
   // Channels of D_B's last level (0: decoder_width). D_B only reconstructs domain B, so that
   // E learns to encode real frames; a narrower D_B leaves more of each step to E and D_A.
   int decoder_b_width = 0;
+  // Colours of D_A's palette head (0: an RGB head). With K > 0, D_A's last convolution gives
+  // per pixel K logits over domain A's region colours (DeepfakeModel::SetPalette, the
+  // background first), and D_A shows their softmax-weighted colour while training and the
+  // colour of the most likely region in translations. A segmentation image is a choice among
+  // K colours per pixel; an RGB head must reach each one by regression, and a pixel between
+  // two regions comes out in a blend that is nearer a third region's colour (lips and mouth
+  // interior blend to the lower eyelid's).
+  int palette_colors = 0;
 
   template <class V>
   void Visit(V&& v) {
@@ -56,6 +64,9 @@ struct DeepfakeNetworkOptions {
       "finest encoder levels whose features also feed the decoders (U-Net skips; 0: none)");
     v("decoder_b_width", decoder_b_width,
       "channels of D_B's last level, doubled per level up (0: decoder_width)");
+    v("palette_colors", palette_colors,
+      "colours of D_A's palette head, domain A's regions and the background (0: an RGB head; "
+      "deepfake train --palette-head sets it)");
   }
   bool Check(std::string* why) const;
   int64_t LatentSize() const {
@@ -72,7 +83,8 @@ struct DeepfakeLossOptions {
   float latent_gan_weight = 0.02f;    // weight of E's adversarial term (against G_latent)
   // Weight of the palette term on D_A's output (DeepfakeTrainer::SetPalette): per pixel, the
   // cross-entropy of the target's region under logits -|y - c_k|^2 / palette_temperature over
-  // the palette colours c_k, each region weighted by its rarity. D_A's targets are flat region
+  // the palette colours c_k (with a palette head: its own logits), each region weighted by its
+  // rarity. D_A's targets are flat region
   // colours, so their labels are known; L1 and DSSIM in RGB let a region a few pixels wide cost
   // almost nothing when it is missing, the weighted cross-entropy does not.
   float palette_weight = 0.f;
@@ -178,6 +190,11 @@ class DeepfakeModel {
   float* parameters();
   void ParametersWritten();
   void ParametersToHost();
+  // The colours of the palette head (RGB in [0, 1], [palette_colors, 3], the background
+  // first); InvalidInputError when their number differs from options().palette_colors.
+  // Without a palette head it does nothing. Not a parameter: it is domain A's, stored with
+  // the regions of the model file.
+  void SetPalette(const std::vector<float>& colors);
   // FNV-1a hash of the parameter bytes (to compare ranks).
   uint64_t ParameterHash();
 
@@ -185,6 +202,7 @@ class DeepfakeModel {
   // For `count` uint8 RGB images [count, size, size, 3] (size == options().size): the
   // translation D(E(I)) as uint8 [count, size, size, 3], E(I) and E(D(E(I))) as
   // [count, LatentSize()] (paper 000 Sec. 9 regresses on the latter). Null outputs are skipped.
+  // With a palette head, D_A's translation is the colour of each pixel's most likely region.
   void Translate(const uint8_t* images, int count, Decoder decoder, uint8_t* translated,
                  float* code, float* code_of_translation);
 
@@ -218,8 +236,9 @@ class DeepfakeTrainer {
   // region's weight in the palette and region-weighted L1 terms (K); without a palette both
   // terms are off.
   void SetPalette(const std::vector<float>& colors, const std::vector<float>& weights);
-  // One Adam step on the gradient buffer; increments step().
-  void OptimizerStep();
+  // One Adam step on the gradient buffer with both learning rates times `learning_rate_scale`
+  // (a schedule of the caller's); increments step().
+  void OptimizerStep(double learning_rate_scale = 1.0);
 
   // Adam state, ParameterLayout() of the model: first and second moments and the step count.
   float* first_moments();

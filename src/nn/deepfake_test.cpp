@@ -161,20 +161,43 @@ TEST_F(DeepfakeTrainerTest, GradientClipBoundsTheStepOfASpike) {
     return std::pair<double, double>{ordinary, step(1000.f)};
   };
   const auto [ordinary, spike] = step_sizes(0.f);
-  const auto [ordinary_clipped, spike_clipped] = step_sizes(3.f);
+  const auto [ordinary_clipped, spike_clipped] = step_sizes(4.f);
   const std::string moves = "ordinary " + std::to_string(ordinary) + ", spike " +
                             std::to_string(spike) + "; clipped: ordinary " +
                             std::to_string(ordinary_clipped) + ", spike " + std::to_string(spike_clipped);
   EXPECT_GT(spike, 4 * ordinary) << moves;
-  // Ordinary steps are not touched by a cap of 3 RMS; the spike's gradient is cut to 3 RMS,
-  // which moves the weights about three ordinary steps' worth (2.7 here) instead of seven.
-  EXPECT_EQ(ordinary_clipped, ordinary) << moves;
-  EXPECT_LT(spike_clipped, 3.5 * ordinary_clipped) << moves;
+  // Ordinary steps are hardly touched by a cap of 4 RMS (it may trim an early step, which
+  // changes the path a little); the spike's gradient is cut to 4 RMS, which moves the weights
+  // about four ordinary steps' worth instead of eleven.
+  EXPECT_NEAR(ordinary_clipped, ordinary, 0.1 * ordinary) << moves;
+  EXPECT_LT(spike_clipped, 4.5 * ordinary_clipped) << moves;
   EXPECT_LT(spike_clipped, 0.5 * spike) << moves;
   DeepfakeLossOptions bad;
   bad.gradient_clip = -1;
   std::string why;
   EXPECT_FALSE(bad.Check(&why));
+}
+
+// A learning-rate scale (the stage's decay schedule) scales the Adam step of every network.
+TEST_F(DeepfakeTrainerTest, LearningRateScaleScalesTheStep) {
+  auto moved = [&](double scale) {
+    DeepfakeModel model(TinyNetwork(), 7);
+    DeepfakeTrainer trainer(&model, DeepfakeLossOptions{});
+    const std::vector<float> before(model.parameters(), model.parameters() + model.num_parameters());
+    trainer.Backward(MakeBatch(a_, b_, 0, 4, 0), 1.0);
+    trainer.OptimizerStep(scale);
+    std::vector<double> d(before.size());
+    for (size_t i = 0; i < d.size(); ++i) d[i] = model.parameters()[i] - before[i];
+    return d;
+  };
+  const std::vector<double> full = moved(1.0), quarter = moved(0.25);
+  double max_err = 0, max_abs = 0;
+  for (size_t i = 0; i < full.size(); ++i) {
+    max_err = std::max(max_err, std::abs(quarter[i] - 0.25 * full[i]));
+    max_abs = std::max(max_abs, std::abs(full[i]));
+  }
+  EXPECT_GT(max_abs, 0);
+  EXPECT_LT(max_err, 1e-3 * max_abs);
 }
 
 TEST_F(DeepfakeTrainerTest, SharesOfASplitBatchSumToTheWholeBatchGradient) {
@@ -276,6 +299,70 @@ TEST_F(DeepfakeTrainerTest, PaletteTermsSplitExactlyAndFall) {
   EXPECT_LT(last, 0.5 * first) << "first 5 steps " << first / 5 << ", last 5 steps " << last / 5;
   EXPECT_LT(last_l1, 0.6 * first_l1) << "first 5 steps " << first_l1 / 5 << ", last 5 steps " << last_l1 / 5;
   EXPECT_THROW(trainer.SetPalette({0.f, 0.f}, {1.f}), InvalidInputError);
+}
+
+// The palette head: D_A's last layer gives one logit per palette colour, the model file
+// records how many, its translations show palette colours only, and training it on the
+// palette term teaches it domain A's labels.
+TEST_F(DeepfakeTrainerTest, PaletteHeadTranslatesIntoPaletteColoursAndLearnsTheLabels) {
+  DeepfakeNetworkOptions o = TinyNetwork();
+  o.palette_colors = 2;
+  const std::vector<float> colors = {0.f, 0.f, 0.f, 250 / 255.f, 40 / 255.f, 40 / 255.f};
+  DeepfakeModel model(o, 7);
+  EXPECT_THROW(model.SetPalette({0.f, 0.f, 0.f}), InvalidInputError);
+  model.SetPalette(colors);
+  for (const TensorSlot& s : model.ParameterLayout()) {
+    if (s.name == "decoder_a/rgb/weight") {
+      EXPECT_EQ(s.shape, (std::vector<int64_t>{2, 8, 3, 3}));
+    }
+    if (s.name == "decoder_b/rgb/weight") {
+      EXPECT_EQ(s.shape, (std::vector<int64_t>{3, 8, 3, 3}));
+    }
+  }
+  DeepfakeLossOptions losses;
+  losses.learning_rate = 2e-3f;
+  losses.palette_weight = 1.f;
+  DeepfakeTrainer trainer(&model, losses);
+  trainer.SetPalette(colors, {0.6f, 2.5f});
+  double first = 0, last = 0;
+  const int steps = 60;
+  for (int step = 0; step < steps; ++step) {
+    const DeepfakeLosses l = trainer.Backward(MakeBatch(a_, b_, (step * 4) % 12, 4, step), 1.0);
+    trainer.OptimizerStep();
+    if (step < 5) first += l.palette_a;
+    if (step >= steps - 5) last += l.palette_a;
+  }
+  EXPECT_LT(last, 0.3 * first) << "first 5 steps " << first / 5 << ", last 5 steps " << last / 5;
+  // Translations of A: every pixel is black or the disc's colour, and mostly the right one.
+  const int count = 8;
+  std::vector<uint8_t> out(count * kSize * kSize * 3);
+  model.Translate(a_.data(), count, DeepfakeModel::Decoder::kA, out.data(), nullptr, nullptr);
+  int wrong = 0, discs = 0;  // all black would get the disc pixels wrong
+  for (int i = 0; i < count * kSize * kSize; ++i) {
+    const uint8_t* p = &out[3 * i];
+    const bool disc = p[0] == 250 && p[1] == 40 && p[2] == 40;
+    ASSERT_TRUE(disc || (p[0] == 0 && p[1] == 0 && p[2] == 0)) << "pixel " << i;
+    wrong += disc != (a_[3 * i] > 0);
+    discs += a_[3 * i] > 0;
+  }
+  EXPECT_LT(wrong, 0.5 * discs) << "of " << count * kSize * kSize << " pixels";
+
+  testing::TempDir dir;
+  const std::string path = dir.File("model.h5");
+  {
+    io::H5File f = io::H5File::CreateAtomic(path);
+    WriteWeights(&f, &model);
+    f.Commit();
+  }
+  EXPECT_EQ(ReadNetworkOptions(io::H5File::OpenRead(path)).palette_colors, 2);
+  DeepfakeModel read_back(ReadNetworkOptions(io::H5File::OpenRead(path)), 8);
+  ReadWeights(io::H5File::OpenRead(path), &read_back);
+  read_back.SetPalette(colors);
+  std::vector<uint8_t> again(out.size());
+  read_back.Translate(a_.data(), count, DeepfakeModel::Decoder::kA, again.data(), nullptr, nullptr);
+  EXPECT_EQ(again, out);
+  o.palette_colors = 1;
+  EXPECT_THROW(DeepfakeModel(o, 7), InvalidInputError);
 }
 
 TEST_F(DeepfakeTrainerTest, CheckpointContinuesBitwiseLikeTrainingStraightThrough) {
@@ -381,17 +468,18 @@ TEST(Augment, NeutralOptionsReproduceTheImage) {
 
 // A paired camera frame and its segmentation move together: the warp that the autoencoder's
 // pairs put on the input alone is applied to both, so a label stays under the pixels that show
-// it; the colour jitter reaches the input only (the target's colours are labels).
+// it; the target is sampled nearest (its colours are labels and must not blend), and the
+// colour jitter reaches the input only.
 TEST(Augment, PairedCameraFramesShareTheWarpWithTheirTarget) {
   AugmentOptions o;
   o.warp = 0.08f;
-  const std::vector<uint8_t> image = TinyImages(1, true, 9);
+  const std::vector<uint8_t> image = TinyImages(1, false, 9);  // a flat disc on black
   const size_t n = image.size();
-  std::vector<float> input(n), target(n), seg_input(n), seg_target(n);
-  auto max_difference = [](const std::vector<float>& x, const std::vector<float>& y) {
-    float d = 0;
-    for (size_t i = 0; i < x.size(); ++i) d = std::max(d, std::abs(x[i] - y[i]));
-    return d;
+  std::vector<float> input(n), target(n), seg_input(n), seg_target(n), jittered(n);
+  auto mean_difference = [](const std::vector<float>& x, const std::vector<float>& y) {
+    double d = 0;
+    for (size_t i = 0; i < x.size(); ++i) d += std::abs(x[i] - y[i]);
+    return d / x.size();
   };
   for (uint64_t seed = 1; seed <= 4; ++seed) {
     o.color_jitter = 0;
@@ -400,19 +488,30 @@ TEST(Augment, PairedCameraFramesShareTheWarpWithTheirTarget) {
                 target.data(), image.data());
     AugmentPair(image.data(), kSize, kSize, o, PairKind::kSegmentation, &b, seg_input.data(),
                 seg_target.data());
-    EXPECT_LT(max_difference(input, target), 1e-5f)
-        << "seed " << seed << ": the warp moves both alike";
-    EXPECT_LT(max_difference(seg_input, input), 1e-5f)
-        << "seed " << seed << ": the same warped input";
-    EXPECT_GT(max_difference(seg_input, seg_target), 0.05f)
-        << "seed " << seed << ": the autoencoder's target is not warped";
+    for (size_t i = 0; i < n; i += 3) {
+      auto is = [&](size_t k, float level) { return std::abs(target[k] * 255.f - level) < 1e-3f; };
+      const bool disc = is(i, 250.f) && is(i + 1, 40.f) && is(i + 2, 40.f);
+      const bool black = target[i] == 0.f && target[i + 1] == 0.f && target[i + 2] == 0.f;
+      ASSERT_TRUE(disc || black) << "seed " << seed << ", pixel " << i / 3 << ": a blended label";
+    }
+    EXPECT_LT(mean_difference(seg_input, input), 1e-6) << "seed " << seed << ": the same warped input";
+    // Pixels whose disc-or-black label differs between an input and its target.
+    auto label_differences = [](const std::vector<float>& x, const std::vector<float>& y) {
+      int d = 0;
+      for (size_t i = 0; i < x.size(); i += 3) d += (x[i] > 0.5f) != (y[i] > 0.5f);
+      return d;
+    };
+    // The paired target's labels follow the warped input but for a few border pixels, where
+    // nearest and bilinear sampling part; the autoencoder's target, not warped, differs more.
+    const int paired = label_differences(input, target);
+    const int autoencoder = label_differences(seg_input, seg_target);
+    EXPECT_LT(2 * paired, autoencoder) << "seed " << seed << ": the warp moves both alike";
     o.color_jitter = 0.3f;
     Rng c(seed, 0);
-    AugmentPair(image.data(), kSize, kSize, o, PairKind::kPairedCamera, &c, input.data(),
-                target.data(), image.data());
-    EXPECT_LT(max_difference(target, seg_input), 1e-5f)
-        << "seed " << seed << ": the target keeps its colours";
-    EXPECT_GT(max_difference(input, target), 0.02f) << "seed " << seed << ": the input is jittered";
+    AugmentPair(image.data(), kSize, kSize, o, PairKind::kPairedCamera, &c, jittered.data(),
+                seg_target.data(), image.data());
+    EXPECT_EQ(seg_target, target) << "seed " << seed << ": the target keeps its colours";
+    EXPECT_GT(mean_difference(jittered, input), 0.01) << "seed " << seed << ": the input is jittered";
   }
 }
 
@@ -566,6 +665,49 @@ TEST(Augment, RepaintedSegmentationKeepsRegionsAndTheTarget) {
     EXPECT_EQ(target, plain_target);
     EXPECT_NE(input, plain_input);
   }
+}
+
+// The background mask is the black that reaches the border: a black pupil enclosed by the
+// iris stays, and a replaced background changes nothing else.
+TEST(Augment, BackgroundReplacementKeepsEnclosedBlackRegions) {
+  constexpr int n = 16;
+  std::vector<uint8_t> seg(3 * n * n, 0);
+  auto paint = [&](int x0, int y0, int x1, int y1, uint8_t r, uint8_t g, uint8_t b) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        seg[3 * (y * n + x)] = r;
+        seg[3 * (y * n + x) + 1] = g;
+        seg[3 * (y * n + x) + 2] = b;
+      }
+  };
+  paint(3, 3, 13, 13, 200, 150, 120);  // a face
+  paint(6, 6, 10, 10, 0, 180, 140);    // an iris
+  paint(7, 7, 9, 9, 0, 0, 0);          // its black pupil
+  const std::vector<uint8_t> mask = BorderBackgroundMask(seg.data(), n);
+  int background = 0;
+  for (int y = 0; y < n; ++y) {
+    for (int x = 0; x < n; ++x) {
+      const bool outside = x < 3 || x >= 13 || y < 3 || y >= 13;
+      EXPECT_EQ(mask[y * n + x], outside ? 1 : 0) << x << "," << y;
+      background += mask[y * n + x];
+    }
+  }
+  EXPECT_EQ(background, n * n - 100);
+  std::vector<uint8_t> camera(3 * n * n), other(3 * n * n), out(3 * n * n);
+  for (size_t i = 0; i < camera.size(); ++i) {
+    camera[i] = static_cast<uint8_t>(i * 7);
+    other[i] = static_cast<uint8_t>(255 - i);
+  }
+  ReplaceBackground(camera.data(), other.data(), mask, n, out.data());
+  for (int i = 0; i < n * n; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(out[3 * i + c], mask[i] ? other[3 * i + c] : camera[3 * i + c]);
+    }
+  }
+  AugmentOptions o;
+  o.random_background = 1.5f;
+  std::string why;
+  EXPECT_FALSE(o.Check(&why));
 }
 
 }  // namespace

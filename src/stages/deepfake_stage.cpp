@@ -34,6 +34,7 @@
 #include "stages/frame_loop.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
+#include "synth/appearance.h"
 #include "util/bytes.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -59,8 +60,10 @@ struct DeepfakeTrainOptions {
   std::vector<std::string> paired;               // wild clips of other people (synth clip) as
                                                  // paired A examples (empty: none)
   double paired_fraction = 0.5;                  // share of A examples drawn from `paired`
+  bool palette_head = false;                     // D_A chooses among A's region colours
   std::string out = "deepfake.h5";               // model file
   int steps = 2000;                              // training steps (global batches)
+  double decay_fraction = 0;                     // last share of the steps with falling rates
   int batch = 16;                                // global batch: images of A and of B per step
   int seed = 1;                                  // initial weights and batch sampling
   int checkpoint_every = 200;                    // steps between checkpoints (0: only at the end)
@@ -90,8 +93,15 @@ struct DeepfakeTrainOptions {
       "setting)");
     v("paired_fraction", paired_fraction,
       "share of the domain-A examples drawn from the paired clips");
+    v("palette_head", palette_head,
+      "D_A gives per pixel logits over domain A's region colours (its /regions and the black "
+      "background) and shows their softmax-weighted colour; translations take the most likely "
+      "region's colour (sets palette_colors; false: an RGB head)");
     v("out", out, "model file (HDF5); OUT.checkpoint holds the checkpoint while training");
     v("steps", steps, "training steps; a finished model is trained further when this grows");
+    v("decay_fraction", decay_fraction,
+      "share of the steps at the end over which both learning rates fall linearly towards 0 "
+      "(0: constant rates; a model trained further decays again before its new end)");
     v("batch", batch, "global batch (images of A and of B per step), shared among the ranks");
     v("seed", seed, "seed of the initial weights and of the batch sampling");
     v("checkpoint_every", checkpoint_every, "steps between checkpoints (0: only at the end)");
@@ -107,6 +117,7 @@ struct DeepfakeTrainOptions {
   }
   bool Check(std::string* why) const {
     if (steps < 0) { *why = "steps must be >= 0"; return false; }
+    if (!(decay_fraction >= 0 && decay_fraction <= 1)) { *why = "decay_fraction must be in [0, 1]"; return false; }
     if (b_holdout_every < 0 || b_holdout_every == 1) { *why = "b_holdout_every must be 0 or >= 2"; return false; }
     if (!(paired_fraction >= 0 && paired_fraction <= 1)) { *why = "paired_fraction must be in [0, 1]"; return false; }
     if (batch < 1) { *why = "batch must be positive"; return false; }
@@ -324,6 +335,15 @@ std::string TrainingIdentity(const DeepfakeTrainOptions& o) {
   return io::ConfigHash(config.ToToml());
 }
 
+// The learning rates' factor at `step` (0-based) of `steps`: 1, then over the last
+// decay_fraction of the steps falling linearly to 1 / (decay steps) at the last step.
+double LearningRateScale(int64_t step, int64_t steps, double decay_fraction) {
+  const int64_t decay = static_cast<int64_t>(std::llround(decay_fraction * steps));
+  const int64_t left = steps - step;  // steps left, this one included
+  if (decay <= 0 || left > decay) return 1.0;
+  return static_cast<double>(std::max<int64_t>(left, 1)) / static_cast<double>(decay);
+}
+
 // Fault injection for the restart tests: FACECAP_FAULT_AFTER_STEPS=k makes rank 0 send itself
 // SIGTERM (or SIGKILL with FACECAP_FAULT_SIGNAL=KILL) once step k is done. Unset in normal use.
 void MaybeInjectFault(const dist::Comm& comm, int64_t steps_done) {
@@ -385,6 +405,30 @@ contour::Palette PaletteOf(const Regions& regions) {
   return palette;
 }
 
+// The black background and the regions' colours, RGB in [0, 1]: the palette of D_A's palette
+// head and of the palette terms.
+std::vector<float> PaletteColors(const Regions& regions) {
+  std::vector<float> colors = {0.f, 0.f, 0.f};
+  for (int r = 0; r < regions.colors.rows(); ++r) {
+    for (int c = 0; c < 3; ++c) colors.push_back(regions.colors(r, c));
+  }
+  return colors;
+}
+
+// Sets the palette of a model with a palette head from the regions of `path`.
+void SetModelPalette(nn::DeepfakeModel* model, const Regions& regions, const std::string& path) {
+  const int k = model->options().palette_colors;
+  if (k == 0) return;
+  if (regions.names.empty() || static_cast<int>(regions.names.size()) + 1 != k) {
+    throw FileIOError(path + ": the palette head has " + std::to_string(k) + " colours, but " +
+                      (regions.names.empty() ? std::string("the file has no /regions")
+                                             : "/regions has " + std::to_string(regions.names.size()) +
+                                                   " regions (with the background " +
+                                                   std::to_string(regions.names.size() + 1) + ")"));
+  }
+  model->SetPalette(PaletteColors(regions));
+}
+
 // The palette term's colours (the black background first, so that a region as black as the
 // background, the pupil, never takes its pixels; then the regions) and region weights:
 // (f_k)^-1/2 for a class covering the fraction f_k of the A targets' pixels (classified as
@@ -402,8 +446,7 @@ PaletteWeights RegionWeights(const Regions& regions, const std::vector<const Ima
   const int K = palette.num_labels();
   // Class k of the term: 0 the background, 1 + r region r.
   auto term_class = [&](int label) { return label == palette.background() ? 0 : label + 1; };
-  out.colors = {0.f, 0.f, 0.f};
-  for (const auto& c : palette.colors) out.colors.insert(out.colors.end(), c.begin(), c.end());
+  out.colors = PaletteColors(regions);
   std::vector<double> counts(K, 0.0);
   for (const ImageShard* shard : shards) {
     Image8 image(shard->size, shard->size, 3);
@@ -489,7 +532,16 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
       throw FileIOError(o.a + ": randomize_a needs the region names and colours (/regions) of "
                         "the segmentation renders");
     }
-    model = std::make_unique<nn::DeepfakeModel>(o.network, static_cast<uint64_t>(o.seed), o.device);
+    nn::DeepfakeNetworkOptions network = o.network;
+    if (o.palette_head) {
+      if (regions.names.empty()) {
+        throw FileIOError(o.a + ": palette_head needs the region names and colours (/regions) "
+                          "of the segmentation renders");
+      }
+      network.palette_colors = static_cast<int>(regions.names.size()) + 1;
+    }
+    model = std::make_unique<nn::DeepfakeModel>(network, static_cast<uint64_t>(o.seed), o.device);
+    SetModelPalette(model.get(), regions, o.a);
     trainer = std::make_unique<nn::DeepfakeTrainer>(model.get(), o.loss);
   });
   if (comm.IsMainRank()) {
@@ -599,6 +651,27 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
     if (comm.IsMainRank()) FC_INFO("deepfake train: region weights of the palette terms {}", pw.summary);
   }
   std::vector<uint8_t> repainted(3LL * shard_a.size * shard_a.size);
+  // Random backgrounds for the paired frames (augment.random_background): a bank of procedural
+  // backgrounds through the camera's degradations, the same on every rank, and each paired
+  // frame's background mask.
+  std::vector<Image8> background_bank;
+  std::vector<std::vector<uint8_t>> paired_masks;
+  std::vector<uint8_t> composite;
+  if (o.augment.random_background > 0 && paired_target.count() > 0) {
+    const int s = paired_image.size;
+    Rng bank_rng(static_cast<uint64_t>(o.seed), 0x4241434bu);
+    for (int k = 0; k < 64; ++k) {
+      const uint64_t seed = bank_rng.NextU64();
+      Image8 image(s, s, 3);
+      synth::DegradeFrame(synth::MakeBackground(s, s, seed), Eigen::Vector3f::Ones(), seed, 0,
+                          synth::CameraDegradationOptions{}, &image);
+      background_bank.push_back(std::move(image));
+    }
+    for (int64_t i = 0; i < paired_target.count(); ++i) {
+      paired_masks.push_back(nn::BorderBackgroundMask(paired_target.image(i), s));
+    }
+    composite.resize(3LL * s * s);
+  }
   for (int64_t step = start_step; step < o.steps; ++step) {
     Rng rng(static_cast<uint64_t>(o.seed), static_cast<uint64_t>(step) * 65536u + comm.rank());
     for (int i = 0; i < local_batch; ++i) {
@@ -613,6 +686,12 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
         target_a = &paired_target;
         input_a = paired_image.image(index_a);
         kind_a = nn::PairKind::kPairedCamera;
+        if (!background_bank.empty() && rng.Uniform() < o.augment.random_background) {
+          const Image8& background = background_bank[rng.UniformInt(background_bank.size())];
+          nn::ReplaceBackground(input_a, background.data.data(), paired_masks[index_a],
+                                paired_image.size, composite.data());
+          input_a = composite.data();
+        }
       } else if (o.augment.randomize_a > 0 && rng.Uniform() < o.augment.randomize_a) {
         nn::RepaintSegmentation(shard_a.image(ia), shard_a.size, palette, &rng, repainted.data());
         input_a = repainted.data();
@@ -625,7 +704,7 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
     }
     const nn::DeepfakeLosses local = trainer->Backward(batch, share);
     comm.SumReduce(trainer->gradients(), trainer->num_gradients());
-    trainer->OptimizerStep();
+    trainer->OptimizerStep(LearningRateScale(step, o.steps, o.decay_fraction));
     MaybeInjectFault(comm, step + 1);
     // The losses of the global batch and whether any rank was asked to stop, in one reduction.
     double reduced[nn::DeepfakeLosses::kCount + 1];
@@ -691,6 +770,7 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
     model = std::make_unique<nn::DeepfakeModel>(nn::ReadNetworkOptions(model_file), 0, o.device);
     nn::ReadWeights(model_file, model.get());
     regions = ReadRegions(model_file);
+    SetModelPalette(model.get(), regions, o.model);
     frames_file = io::H5File::OpenRead(o.frames);
     dataset = FindImageDataset(frames_file, o.dataset);
     const io::Shape shape = frames_file.CheckShape(dataset, {-1, -1, -1, 3});

@@ -85,13 +85,15 @@ class DeepfakeStage : public ::testing::Test {
 
 testing::TempDir* DeepfakeStage::dir_ = nullptr;
 
-// (With the palette term on, whose region weights come from every rank's shard: the same
-// weights for any number of ranks.)
+// (With the palette head and term on, whose region weights come from every rank's shard, and
+// paired frames on random backgrounds from a bank every rank draws alike: the same weights for
+// any number of ranks.)
 TEST_F(DeepfakeStage, EveryRankHoldsTheSameWeightsOnTwoAndThreeRanks) {
   std::vector<std::string> region_weights;
   for (int ranks : {2, 3}) {
     const std::string out = File("ranks" + std::to_string(ranks) + ".h5");
-    auto r = RunFacecap(Train(out, 5) + " --palette-weight 1", ranks, kEnv);
+    auto r = RunFacecap(Train(out, 5) + " --palette-weight 1 --palette-head --paired " +
+                        File("b.h5") + " --random-background 1", ranks, kEnv);
     ASSERT_EQ(r.code, 0) << r.output;
     const size_t at = r.output.find("region weights ");
     ASSERT_NE(at, std::string::npos) << r.output;
@@ -109,12 +111,18 @@ TEST_F(DeepfakeStage, EveryRankHoldsTheSameWeightsOnTwoAndThreeRanks) {
     EXPECT_FALSE(std::filesystem::exists(out + ".checkpoint"));
   }
   EXPECT_EQ(region_weights[0], region_weights[1]);
+  EXPECT_EQ(io::H5File::OpenRead(File("ranks2.h5")).GetIntAttribute("/weights", "palette_colors"), 17);
   EXPECT_NE(region_weights[0].find("background"), std::string::npos) << region_weights[0];
 }
 
+// (With the palette head, random backgrounds and the decay of the learning rates over the last
+// half of the steps, so that these continue bitwise too.)
 TEST_F(DeepfakeStage, StoppedAndKilledRunsContinueToTheStraightResult) {
   const std::string straight = File("straight.h5"), stopped = File("stopped.h5"),
                     killed = File("killed.h5");
+  const std::string extra = " --palette-weight 1 --palette-head --paired " + File("b.h5") +
+                            " --random-background 0.5 --decay-fraction 0.5";
+  auto Train = [&](const std::string& out, int steps) { return DeepfakeStage::Train(out, steps) + extra; };
   ASSERT_EQ(RunFacecap(Train(straight, 10), 2, kEnv).code, 0);
   // SIGTERM after step 3: a checkpoint at step 3, exit 75, then a rerun continues.
   auto stop = RunFacecap(Train(stopped, 10), 2, std::string(kEnv) + " FACECAP_FAULT_AFTER_STEPS=3");
@@ -214,6 +222,9 @@ TEST_F(DeepfakeStage, PairedExamplesTeachTheTranslation) {
   };
   const double unpaired = error(""), paired = error(" --paired " + File("b.h5") + " --paired-fraction 1");
   EXPECT_LT(paired, 0.8 * unpaired) << "paired " << paired << ", unpaired " << unpaired;
+  // The palette head chooses among the region colours: nearer still after the same steps.
+  const double head = error(" --paired " + File("b.h5") + " --paired-fraction 1 --palette-head --palette-weight 1");
+  EXPECT_LT(head, paired) << "palette head " << head << ", RGB head " << paired;
 
   auto bad = RunFacecap(Train(File("paired_bad.h5"), 2) + " --paired " + File("b.h5") + "," +
                         File("samples2.h5"), 0, kEnv);
