@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -87,6 +88,20 @@ TrainingBatch Slice(const TrainingBatch& batch, int first, int count) {
   return s;
 }
 
+// Writes the model to `path` and builds another from the file alone (other initial weights,
+// all replaced by the file's).
+std::unique_ptr<DeepfakeModel> RoundTrip(DeepfakeModel* model, const std::string& path) {
+  {
+    io::H5File f = io::H5File::CreateAtomic(path);
+    WriteWeights(&f, model);
+    f.Commit();
+  }
+  const io::H5File f = io::H5File::OpenRead(path);
+  auto read_back = std::make_unique<DeepfakeModel>(ReadNetworkOptions(f), 8);
+  ReadWeights(f, read_back.get());
+  return read_back;
+}
+
 class DeepfakeTrainerTest : public ::testing::Test {
  protected:
   void SetUp() override { SetTorchThreads(1); }
@@ -121,16 +136,9 @@ TEST_F(DeepfakeTrainerTest, NarrowerDecoderBIsBuiltAndStored) {
   EXPECT_LT(model.num_parameters(), DeepfakeModel(TinyNetwork(), 7).num_parameters());
 
   testing::TempDir dir;
-  const std::string path = dir.File("model.h5");
-  {
-    io::H5File f = io::H5File::CreateAtomic(path);
-    WriteWeights(&f, &model);
-    f.Commit();
-  }
-  EXPECT_EQ(ReadNetworkOptions(io::H5File::OpenRead(path)).decoder_b_width, 4);
-  DeepfakeModel read_back(ReadNetworkOptions(io::H5File::OpenRead(path)), 8);
-  ReadWeights(io::H5File::OpenRead(path), &read_back);
-  EXPECT_EQ(read_back.ParameterHash(), model.ParameterHash());
+  const std::unique_ptr<DeepfakeModel> read_back = RoundTrip(&model, dir.File("model.h5"));
+  EXPECT_EQ(read_back->options().decoder_b_width, 4);
+  EXPECT_EQ(read_back->ParameterHash(), model.ParameterHash());
   o.decoder_b_width = -1;
   EXPECT_THROW(DeepfakeModel(o, 7), InvalidInputError);
 }
@@ -348,18 +356,11 @@ TEST_F(DeepfakeTrainerTest, PaletteHeadTranslatesIntoPaletteColoursAndLearnsTheL
   EXPECT_LT(wrong, 0.5 * discs) << "of " << count * kSize * kSize << " pixels";
 
   testing::TempDir dir;
-  const std::string path = dir.File("model.h5");
-  {
-    io::H5File f = io::H5File::CreateAtomic(path);
-    WriteWeights(&f, &model);
-    f.Commit();
-  }
-  EXPECT_EQ(ReadNetworkOptions(io::H5File::OpenRead(path)).palette_colors, 2);
-  DeepfakeModel read_back(ReadNetworkOptions(io::H5File::OpenRead(path)), 8);
-  ReadWeights(io::H5File::OpenRead(path), &read_back);
-  read_back.SetPalette(colors);
+  const std::unique_ptr<DeepfakeModel> read_back = RoundTrip(&model, dir.File("model.h5"));
+  EXPECT_EQ(read_back->options().palette_colors, 2);
+  read_back->SetPalette(colors);
   std::vector<uint8_t> again(out.size());
-  read_back.Translate(a_.data(), count, DeepfakeModel::Decoder::kA, again.data(), nullptr, nullptr);
+  read_back->Translate(a_.data(), count, DeepfakeModel::Decoder::kA, again.data(), nullptr, nullptr);
   EXPECT_EQ(again, out);
   o.palette_colors = 1;
   EXPECT_THROW(DeepfakeModel(o, 7), InvalidInputError);
