@@ -21,6 +21,10 @@ bool AugmentOptions::Check(std::string* why) const {
     return false;
   }
   if (!(randomize_a >= 0 && randomize_a <= 1)) { *why = "randomize_a must be in [0, 1]"; return false; }
+  if (!(paired_appearance >= 0 && paired_appearance <= 1)) {
+    *why = "paired_appearance must be in [0, 1]";
+    return false;
+  }
   return true;
 }
 
@@ -185,6 +189,47 @@ void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentO
         if (jitter_input) jitter(input + k + c);
         if (jitter_target) jitter(target + k + c);
       }
+    }
+  }
+}
+
+void AugmentAppearance(float* image, int size, Rng* rng) {
+  auto uniform = [&](double lo, double hi) { return static_cast<float>(rng->Uniform(lo, hi)); };
+  const float sigma = rng->Uniform() < 0.5 ? uniform(0.0, 1.5) : 0.f;
+  const float ramp_x = uniform(-0.35, 0.35), ramp_y = uniform(-0.35, 0.35);
+  const float gamma = std::exp(uniform(std::log(0.7), std::log(1.45)));
+  const float gain[3] = {uniform(0.8, 1.2), uniform(0.8, 1.2), uniform(0.8, 1.2)};
+  const size_t n = static_cast<size_t>(size) * size;
+  if (sigma > 0.2f) {
+    // Separable Gaussian, edges clamped: rows into `tmp`, then columns back into the image.
+    const int radius = static_cast<int>(std::ceil(3.f * sigma));
+    std::vector<float> kernel(2 * radius + 1);
+    float sum = 0.f;
+    for (int i = -radius; i <= radius; ++i) sum += kernel[i + radius] = std::exp(-0.5f * i * i / (sigma * sigma));
+    for (float& k : kernel) k /= sum;
+    std::vector<float> tmp(3 * n);
+    for (int pass = 0; pass < 2; ++pass) {
+      const float* from = pass == 0 ? image : tmp.data();
+      float* to = pass == 0 ? tmp.data() : image;
+      for (int y = 0; y < size; ++y) {
+        for (int x = 0; x < size; ++x) {
+          float acc[3] = {0.f, 0.f, 0.f};
+          for (int i = -radius; i <= radius; ++i) {
+            const int sx = pass == 0 ? std::clamp(x + i, 0, size - 1) : x;
+            const int sy = pass == 1 ? std::clamp(y + i, 0, size - 1) : y;
+            const float* p = from + (static_cast<size_t>(sy) * size + sx) * 3;
+            for (int c = 0; c < 3; ++c) acc[c] += kernel[i + radius] * p[c];
+          }
+          std::copy(acc, acc + 3, to + (static_cast<size_t>(y) * size + x) * 3);
+        }
+      }
+    }
+  }
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const float light = 1.f + ramp_x * (2.f * (x + 0.5f) / size - 1.f) + ramp_y * (2.f * (y + 0.5f) / size - 1.f);
+      float* p = image + (static_cast<size_t>(y) * size + x) * 3;
+      for (int c = 0; c < 3; ++c) p[c] = std::clamp(std::pow(p[c], gamma) * light * gain[c], 0.f, 1.f);
     }
   }
 }

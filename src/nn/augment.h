@@ -40,6 +40,12 @@ struct AugmentOptions {
   // degradations. A paired clip has the one background of its scene, and a network that has
   // seen one background takes the dark parts of another for mouth interior or hair. 0: off.
   float random_background = 0.f;
+  // Probability that a paired camera frame's input gets a random change of look on top of the
+  // colour jitter (AugmentAppearance): a Gaussian blur, a linear light ramp across the image,
+  // a gamma and per-channel gains (a skin tone and light colour). A paired clip has the one
+  // person, light and lens of its scene, and a new person under other light through another
+  // lens is what the translation meets. 0: off.
+  float paired_appearance = 0.f;
 
   template <class V>
   void Visit(V&& v) {
@@ -62,6 +68,9 @@ struct AugmentOptions {
     v("random_background", random_background,
       "probability that a paired camera frame's background is replaced by a random procedural "
       "one (0: never)");
+    v("paired_appearance", paired_appearance,
+      "probability that a paired camera frame's input is blurred, relit by a light ramp, "
+      "gamma-corrected and tinted at random (0: never)");
   }
   bool Check(std::string* why) const;
 };
@@ -105,6 +114,12 @@ enum class PairKind {
 void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentOptions& options,
                  PairKind kind, Rng* rng, float* input, float* target,
                  const uint8_t* input_image = nullptr, const SideSwap* sides = nullptr);
+
+// A random change of look of a float RGB image [size, size, 3] in [0, 1], in place: a
+// Gaussian blur of sigma in [0, 1.5] pixels (half the time), a light ramp
+// 1 + a x + b y (x, y in [-1, 1], a, b in [-0.35, 0.35]), a gamma in [0.7, 1.45] and
+// per-channel gains in [0.8, 1.2]. Every draw comes from `rng`.
+void AugmentAppearance(float* image, int size, Rng* rng);
 
 // What a segmentation region looks like on a person, from its name.
 enum class RegionKind { kSkin, kLips, kBrow, kHair, kSclera, kIris, kPupil, kMouth };

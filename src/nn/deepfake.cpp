@@ -30,7 +30,8 @@ torch::nn::Conv2d Conv(int in, int out, int kernel, int stride, int padding) {
 
 // E: strided 5x5 convolutions from size down to latent_resolution, channels encoder_width,
 // 2x, 4x, ..., then a 1x1 convolution to the latent_channels of the code E(I) (no activation).
-// forward() returns every level's features (after the activation) and the code last.
+// forward() returns every level's features (after the activation), then with
+// input_skip_width > 0 the features of a stride-1 3x3 convolution of the image, and the code last.
 struct EncoderNetImpl : torch::nn::Module {
   explicit EncoderNetImpl(const DeepfakeNetworkOptions& o) {
     const int levels = Log2(o.size / o.latent_resolution);
@@ -41,18 +42,21 @@ struct EncoderNetImpl : torch::nn::Module {
       in = out;
     }
     code = register_module("code", Conv(in, o.latent_channels, 1, 1, 0));
+    if (o.input_skip_width > 0) full = register_module("full", Conv(3, o.input_skip_width, 3, 1, 1));
   }
   std::vector<torch::Tensor> forward(torch::Tensor x) {
     std::vector<torch::Tensor> out;
+    const torch::Tensor image = x;
     for (auto& conv : down) {
       x = torch::leaky_relu(conv->forward(x), 0.1);
       out.push_back(x);
     }
+    if (full) out.push_back(torch::leaky_relu(full->forward(image), 0.1));
     out.push_back(code->forward(x));
     return out;
   }
   std::vector<torch::nn::Conv2d> down;
-  torch::nn::Conv2d code{nullptr};
+  torch::nn::Conv2d code{nullptr}, full{nullptr};
 };
 TORCH_MODULE(EncoderNet);
 
@@ -60,18 +64,21 @@ TORCH_MODULE(EncoderNet);
 // convolution (channels halving down to decoder_width), and a 3x3 convolution to RGB in [0, 1]
 // or, with a palette head (`colors` > 0), to per-pixel logits over the palette's colours.
 // With skips > 0, the upsampled features of the `skips` finest encoder levels are concatenated
-// with the encoder's features of the same resolution before the convolution (a U-Net).
+// with the encoder's features of the same resolution before the convolution (a U-Net); with
+// input_skip_width > 0, the last one also gets the encoder's input-resolution features.
 // `width` is the channels of the last level (decoder_width for D_A, decoder_b_width for D_B).
 struct DecoderNetImpl : torch::nn::Module {
   DecoderNetImpl(const DeepfakeNetworkOptions& o, int width, int colors = 0)
-      : levels(Log2(o.size / o.latent_resolution)), skips(o.skips), colors(colors) {
+      : levels(Log2(o.size / o.latent_resolution)), skips(o.skips), colors(colors),
+        input_skip(o.input_skip_width > 0) {
     int in = width << (levels - 1);
     input = register_module("in", Conv(o.latent_channels, in, 3, 1, 1));
     for (int l = levels - 1; l >= 0; --l) {
       const int k = levels - 1 - l;
       const int out = width << l;
       const int skip_level = levels - 2 - k;  // encoder level of the same resolution
-      const int extra = skip_level >= 0 && skip_level < skips ? (o.encoder_width << skip_level) : 0;
+      int extra = skip_level >= 0 && skip_level < skips ? (o.encoder_width << skip_level) : 0;
+      if (skip_level == -1) extra = o.input_skip_width;  // the input resolution's level
       up.push_back(register_module("up" + std::to_string(k), Conv(in + extra, out, 3, 1, 1)));
       in = out;
     }
@@ -86,6 +93,7 @@ struct DecoderNetImpl : torch::nn::Module {
       x = torch::upsample_nearest2d(x, {x.size(2) * 2, x.size(3) * 2});
       const int skip_level = levels - 2 - k;
       if (skip_level >= 0 && skip_level < skips) x = torch::cat({x, encoded[skip_level]}, 1);
+      if (skip_level == -1 && input_skip) x = torch::cat({x, encoded[levels]}, 1);
       x = torch::leaky_relu(up[k]->forward(x), 0.1);
     }
     const torch::Tensor y = rgb->forward(x);
@@ -100,6 +108,7 @@ struct DecoderNetImpl : torch::nn::Module {
     return torch::conv2d(onehot, palette);
   }
   int levels, skips, colors;
+  bool input_skip;
   torch::Tensor palette;
   torch::nn::Conv2d input{nullptr}, rgb{nullptr};
   std::vector<torch::nn::Conv2d> up;
@@ -179,6 +188,10 @@ bool DeepfakeNetworkOptions::Check(std::string* why) const {
     *why = "encoder_width, decoder_width, discriminator_width and latent_channels must be positive";
     return false;
   }
+  if (input_skip_width < 0 || input_skip_width > 1024) {
+    *why = "input_skip_width must be in [0, 1024]";
+    return false;
+  }
   if (palette_colors < 0 || palette_colors == 1 || palette_colors > 256) {
     *why = "palette_colors must be 0 (an RGB head) or in [2, 256]";
     return false;
@@ -202,7 +215,7 @@ bool DeepfakeNetworkOptions::Check(std::string* why) const {
 
 bool DeepfakeLossOptions::Check(std::string* why) const {
   for (float w : {l1_weight, l2_weight, dssim_weight, image_gan_weight, latent_gan_weight, palette_weight,
-                   region_l1_weight}) {
+                   region_l1_weight, dice_weight}) {
     if (!(w >= 0)) { *why = "loss weights must be >= 0"; return false; }
   }
   if (!(gradient_clip >= 0)) {
@@ -230,12 +243,12 @@ bool DeepfakeLossOptions::Check(std::string* why) const {
 
 void DeepfakeLosses::ToArray(double* v) const {
   v[0] = recon_a; v[1] = recon_b; v[2] = image_adversarial; v[3] = latent_adversarial;
-  v[4] = image_discriminator; v[5] = latent_discriminator; v[6] = palette_a;
+  v[4] = image_discriminator; v[5] = latent_discriminator; v[6] = palette_a; v[8] = dice_a;
   v[7] = region_l1_a;
 }
 void DeepfakeLosses::FromArray(const double* v) {
   recon_a = v[0]; recon_b = v[1]; image_adversarial = v[2]; latent_adversarial = v[3];
-  image_discriminator = v[4]; latent_discriminator = v[5]; palette_a = v[6];
+  image_discriminator = v[4]; latent_discriminator = v[5]; palette_a = v[6]; dice_a = v[8];
   region_l1_a = v[7];
 }
 
@@ -263,6 +276,7 @@ struct DeepfakeModel::Impl {
   int64_t generator_count = 0;  // E, D_A, D_B come first in the buffers
   torch::Tensor flat;           // every parameter, on the device
   torch::Tensor host;           // host mirror of `flat` (only when the device is not the CPU)
+  torch::Tensor mirror;         // palette index of each colour's mirror (SetFlipAverage)
 
   bool on_cpu() const { return device.is_cpu(); }
   float* host_data() { return on_cpu() ? flat.data_ptr<float>() : host.data_ptr<float>(); }
@@ -364,6 +378,24 @@ void DeepfakeModel::SetPalette(const std::vector<float>& colors) {
   impl_->decoder_a->palette.copy_(c.t().reshape({3, k, 1, 1}).to(impl_->device));
 }
 
+void DeepfakeModel::SetFlipAverage(const std::vector<int>& mirror) {
+  const int k = impl_->options.palette_colors;
+  if (mirror.empty()) {
+    impl_->mirror = torch::Tensor();
+    return;
+  }
+  if (static_cast<int>(mirror.size()) != k) {
+    throw InvalidInputError("deepfake: flip averaging needs a mirror index for each of the palette "
+                            "head's " + std::to_string(k) + " colours, got " +
+                            std::to_string(mirror.size()));
+  }
+  std::vector<int64_t> index(mirror.begin(), mirror.end());
+  for (int64_t i : index) {
+    if (i < 0 || i >= k) throw InvalidInputError("deepfake: a mirror index is out of range");
+  }
+  impl_->mirror = torch::tensor(index, torch::kInt64).to(impl_->device);
+}
+
 uint64_t DeepfakeModel::ParameterHash() {
   ParametersToHost();
   const auto* bytes = reinterpret_cast<const uint8_t*>(parameters());
@@ -393,6 +425,13 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
   } else {
     torch::Tensor logits;
     m.decoder_a->forward(encoded, &logits);
+    if (m.mirror.defined()) {
+      // The mirror image's logits, mirrored back and their left and right regions swapped.
+      torch::Tensor mirrored;
+      m.decoder_a->forward(m.encoder->forward(x.flip({3})), &mirrored);
+      logits = torch::log_softmax(logits, 1) +
+               torch::log_softmax(mirrored.flip({3}).index_select(1, m.mirror), 1);
+    }
     y = m.decoder_a->Labels(logits);
   }
   const int64_t latent = m.options.LatentSize();
@@ -549,7 +588,8 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     // region-weighted L1 term: |y - x| with the same pixel weights.
     torch::Tensor palette_loss = torch::zeros({}, recon_a.options());
     torch::Tensor region_l1_loss = torch::zeros({}, recon_a.options());
-    if ((w.palette_weight > 0 || w.region_l1_weight > 0) && t.palette.defined()) {
+    torch::Tensor dice_loss = torch::zeros({}, recon_a.options());
+    if ((w.palette_weight > 0 || w.region_l1_weight > 0 || w.dice_weight > 0) && t.palette.defined()) {
       // [B, 3, H, W] -> [B, K, H, W]: |y - c_k|^2 = |y|^2 - 2 y.c_k + |c_k|^2, the middle
       // term a 1x1 convolution (no [B, K, 3, H, W] intermediate to build and differentiate).
       const torch::Tensor palette_norms = t.palette.pow(2).sum(1).view({1, -1, 1, 1});
@@ -563,11 +603,19 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
         labels = distances(target_a).argmin(1);                       // [B, H, W]
         pixel_weights = t.palette_weights.index({labels});            // [B, H, W]
       }
+      const torch::Tensor logits =
+          logits_a.defined() ? logits_a : -distances(recon_a) / w.palette_temperature;
       if (w.palette_weight > 0) {
-        const torch::Tensor log_p = torch::log_softmax(
-            logits_a.defined() ? logits_a : -distances(recon_a) / w.palette_temperature, 1);
+        const torch::Tensor log_p = torch::log_softmax(logits, 1);
         const torch::Tensor nll = -log_p.gather(1, labels.unsqueeze(1)).squeeze(1);
         palette_loss = (nll * pixel_weights).mean();
+      }
+      if (w.dice_weight > 0) {
+        const torch::Tensor p = torch::softmax(logits, 1);                          // [B, K, H, W]
+        const torch::Tensor onehot = torch::zeros_like(p).scatter_(1, labels.unsqueeze(1), 1.0);
+        const torch::Tensor overlap = (p * onehot).sum({2, 3});                     // [B, K]
+        const torch::Tensor total = p.sum({2, 3}) + onehot.sum({2, 3});
+        dice_loss = (1.0 - (2.0 * overlap + 1.0) / (total + 1.0)).mean();
       }
       if (w.region_l1_weight > 0) {
         region_l1_loss = ((recon_a - target_a).abs() * pixel_weights.unsqueeze(1)).mean();
@@ -577,13 +625,16 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     // The generators' side of the asymmetric GAN losses (least squares): D_A maximizes f_image
     // by pushing G_image(D_A(E(I_A))) to 1; E maximizes f_latent by pushing G_latent(E(I_B))
     // to 1, the score of codes of A, so that B's codes land where D_A can decode them.
+    // With image_gan_weight 0, G_image is neither evaluated nor trained (f_image reads 0).
+    const bool image_gan = w.image_gan_weight > 0;
     const torch::Tensor image_adversarial =
-        (1.0 - m.image_discriminator->forward(recon_a)).pow(2).mean();
+        image_gan ? (1.0 - m.image_discriminator->forward(recon_a)).pow(2).mean()
+                  : torch::zeros({}, recon_a.options());
     const torch::Tensor latent_adversarial =
         (1.0 - m.latent_discriminator->forward(code_b)).pow(2).mean();
     const torch::Tensor generator_loss =
         (recon_loss_a + recon_loss_b + w.palette_weight * palette_loss + w.region_l1_weight * region_l1_loss +
-         w.image_gan_weight * image_adversarial +
+         w.dice_weight * dice_loss + w.image_gan_weight * image_adversarial +
          w.latent_gan_weight * latent_adversarial) * share;
     generator_loss.backward();
     {
@@ -593,8 +644,9 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     }
     // f_image = ||G_image(D_A(E(I_A)))|| + ||1 - G_image(I_A)||
     const torch::Tensor image_discriminator =
-        m.image_discriminator->forward(recon_a.detach()).pow(2).mean() +
-        (1.0 - m.image_discriminator->forward(target_a)).pow(2).mean();
+        image_gan ? m.image_discriminator->forward(recon_a.detach()).pow(2).mean() +
+                        (1.0 - m.image_discriminator->forward(target_a)).pow(2).mean()
+                  : torch::zeros({}, recon_a.options());
     // f_latent = ||G_latent(E(I_B))|| + ||1 - G_latent(E(I_A))||
     const torch::Tensor latent_discriminator =
         m.latent_discriminator->forward(code_b.detach()).pow(2).mean() +
@@ -610,6 +662,7 @@ DeepfakeLosses DeepfakeTrainer::Backward(const TrainingBatch& batch, double shar
     out.latent_discriminator = latent_discriminator.item<double>() * share;
     out.palette_a = palette_loss.item<double>() * share;
     out.region_l1_a = region_l1_loss.item<double>() * share;
+    out.dice_a = dice_loss.item<double>() * share;
   }
   if (!t.on_cpu()) t.gradients_host.copy_(t.gradients);
   return out;

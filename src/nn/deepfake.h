@@ -43,6 +43,12 @@ struct DeepfakeNetworkOptions {
   // Channels of D_B's last level (0: decoder_width). D_B only reconstructs domain B, so that
   // E learns to encode real frames; a narrower D_B leaves more of each step to E and D_A.
   int decoder_b_width = 0;
+  // Channels of an extra encoder level at the input resolution (a stride-1 3x3 convolution of
+  // the image) whose features feed the decoders' last convolution, which draws the output at
+  // that resolution (0: none). The strided levels stop at half the input resolution, so
+  // without it the decoders place borders from features a pixel pair apart; an iris or a lip
+  // at 64x64 is a few pixels wide.
+  int input_skip_width = 0;
   // Colours of D_A's palette head (0: an RGB head). With K > 0, D_A's last convolution gives
   // per pixel K logits over domain A's region colours (DeepfakeModel::SetPalette, the
   // background first), and D_A shows their softmax-weighted colour while training and the
@@ -64,6 +70,9 @@ struct DeepfakeNetworkOptions {
       "finest encoder levels whose features also feed the decoders (U-Net skips; 0: none)");
     v("decoder_b_width", decoder_b_width,
       "channels of D_B's last level, doubled per level up (0: decoder_width)");
+    v("input_skip_width", input_skip_width,
+      "channels of an encoder level at the input resolution that feeds the decoders' last "
+      "convolution (0: none)");
     v("palette_colors", palette_colors,
       "colours of D_A's palette head, domain A's regions and the background (0: an RGB head; "
       "deepfake train --palette-head sets it)");
@@ -95,6 +104,12 @@ struct DeepfakeLossOptions {
   // face, not of the image (DeepFaceLab's eyes-and-mouth priority in spirit). 0: none; 2
   // raised the held-out IoU after 1,200 steps from 0.400 to 0.435 (analysis/deepfake_iou.sh).
   float region_l1_weight = 2.f;
+  // Weight of a soft Dice term on D_A's region probabilities (the palette head's softmax, or
+  // the palette term's logits): per image and palette colour k,
+  // 1 - (2 sum p_k t_k + 1) / (sum p_k + sum t_k + 1) with t_k the target's one-hot region,
+  // averaged over colours and images. Each region counts as much as any other whatever its
+  // size, as in the mean IoU it stands in for. Per image, so a rank's share is exact. 0: none.
+  float dice_weight = 0.f;
   float learning_rate = 1e-3f;        // Adam step of E, D_A, D_B
   // Caps each step's gradient norm (generators and discriminators apart) at this multiple of
   // the running RMS norm Adam has seen (its second moment, bias-corrected): a sudden gradient
@@ -120,6 +135,9 @@ struct DeepfakeLossOptions {
     v("region_l1_weight", region_l1_weight,
       "weight of an L1 term on D_A's output with each pixel weighted by its target region's "
       "rarity, as the palette term's regions (0: none)");
+    v("dice_weight", dice_weight,
+      "weight of a per-image soft Dice term on D_A's region probabilities, every region "
+      "counted alike (0: none; needs the palette)");
     v("learning_rate", learning_rate, "Adam learning rate of the encoder and decoders");
     v("gradient_clip", gradient_clip,
       "cap on each step's gradient norm, as a multiple of its running RMS in Adam's second "
@@ -159,7 +177,8 @@ struct DeepfakeLosses {
   double latent_discriminator = 0;  // f_latent = ||G_latent(E(I_B))|| + ||1 - G_latent(E(I_A))||
   double palette_a = 0;             // weighted region cross-entropy of D_A(E(I_A)) (palette_weight)
   double region_l1_a = 0;           // region-weighted L1 of D_A(E(I_A)) (region_l1_weight)
-  static constexpr int kCount = 8;
+  double dice_a = 0;                // soft Dice term of D_A(E(I_A)) (dice_weight)
+  static constexpr int kCount = 9;
   void ToArray(double* v) const;
   void FromArray(const double* v);
 };
@@ -195,6 +214,12 @@ class DeepfakeModel {
   // Without a palette head it does nothing. Not a parameter: it is domain A's, stored with
   // the regions of the model file.
   void SetPalette(const std::vector<float>& colors);
+  // Flip averaging of the palette head at inference: `mirror[k]` is the palette index of colour
+  // k's mirror image (a left region's right region; k itself for the others). D_A's logits of
+  // an image and the mirrored logits of its mirror image are averaged before each pixel's most
+  // likely region is taken. Empty: off (the default). InvalidInputError when the size differs
+  // from options().palette_colors or an index is out of range.
+  void SetFlipAverage(const std::vector<int>& mirror);
   // FNV-1a hash of the parameter bytes (to compare ranks).
   uint64_t ParameterHash();
 
@@ -202,7 +227,8 @@ class DeepfakeModel {
   // For `count` uint8 RGB images [count, size, size, 3] (size == options().size): the
   // translation D(E(I)) as uint8 [count, size, size, 3], E(I) and E(D(E(I))) as
   // [count, LatentSize()] (paper 000 Sec. 9 regresses on the latter). Null outputs are skipped.
-  // With a palette head, D_A's translation is the colour of each pixel's most likely region.
+  // With a palette head, D_A's translation is the colour of each pixel's most likely region
+  // (averaged over the image and its mirror image after SetFlipAverage).
   void Translate(const uint8_t* images, int count, Decoder decoder, uint8_t* translated,
                  float* code, float* code_of_translation);
 

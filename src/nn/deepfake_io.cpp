@@ -67,7 +67,8 @@ DeepfakeNetworkOptions ReadNetworkOptions(const io::H5File& file) {
   o.Visit([&](const char* key, int& value, const char*) {
     const std::string name = key;
     if (!file.HasAttribute(kWeights, key) &&
-        (name == "skips" || name == "decoder_b_width" || name == "palette_colors")) {
+        (name == "skips" || name == "decoder_b_width" || name == "palette_colors" ||
+         name == "input_skip_width")) {
       value = 0;  // files written before these options existed: their behaviour then
       return;
     }

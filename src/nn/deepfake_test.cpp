@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -143,6 +144,37 @@ TEST_F(DeepfakeTrainerTest, NarrowerDecoderBIsBuiltAndStored) {
   EXPECT_THROW(DeepfakeModel(o, 7), InvalidInputError);
 }
 
+// The input-resolution skip: the encoder gets a stride-1 level of the width asked for, both
+// decoders' last convolutions take its features beside the upsampled ones, its weights get
+// gradients, and the model file rebuilds the same network.
+TEST_F(DeepfakeTrainerTest, InputSkipLevelFeedsTheLastDecoderConvolutionAndIsStored) {
+  DeepfakeNetworkOptions o = TinyNetwork();
+  o.input_skip_width = 4;
+  DeepfakeModel model(o, 7);
+  std::map<std::string, TensorSlot> slots;
+  for (const TensorSlot& s : model.ParameterLayout()) slots[s.name] = s;
+  ASSERT_TRUE(slots.count("encoder/full/weight"));
+  EXPECT_EQ(slots["encoder/full/weight"].shape, (std::vector<int64_t>{4, 3, 3, 3}));
+  // 16x16 from a 4x4 code: two levels up, the last one from 16 upsampled channels and 4 skipped.
+  EXPECT_EQ(slots["decoder_a/up1/weight"].shape, (std::vector<int64_t>{8, 20, 3, 3}));
+  EXPECT_EQ(slots["decoder_b/up1/weight"].shape, (std::vector<int64_t>{8, 20, 3, 3}));
+  EXPECT_EQ(slots["decoder_a/up0/weight"].shape, (std::vector<int64_t>{16, 16, 3, 3}));
+
+  DeepfakeTrainer trainer(&model, DeepfakeLossOptions{});
+  trainer.Backward(MakeBatch(a_, b_, 0, 4, 1), 1.0);
+  const TensorSlot& full = slots["encoder/full/weight"];
+  double norm = 0;
+  for (int64_t i = 0; i < full.count; ++i) norm += std::abs(trainer.gradients()[full.offset + i]);
+  EXPECT_GT(norm, 0.0);
+
+  testing::TempDir dir;
+  const std::unique_ptr<DeepfakeModel> read_back = RoundTrip(&model, dir.File("model.h5"));
+  EXPECT_EQ(read_back->options().input_skip_width, 4);
+  EXPECT_EQ(read_back->ParameterHash(), model.ParameterHash());
+  o.input_skip_width = -1;
+  EXPECT_THROW(DeepfakeModel(o, 7), InvalidInputError);
+}
+
 // gradient_clip: a gradient a thousand times its usual size (what a loss spike hands Adam)
 // moves the weights no further than a gradient at the cap would, where unclipped Adam with
 // beta1 0.5 jumps 0.5 sqrt(k) learning rates in every weight after k steps (16 once the second
@@ -252,13 +284,14 @@ TEST_F(DeepfakeTrainerTest, LossFallsOnATinyDataset) {
   EXPECT_LT(last, 0.6 * first) << "first 5 steps " << first / 5 << ", last 5 steps " << last / 5;
 }
 
-// The palette terms (weighted region cross-entropy and region-weighted L1 of D_A's output):
-// split shares still sum to the whole batch's gradient, and training lowers them.
+// The palette terms (weighted region cross-entropy, region-weighted L1 and soft Dice of D_A's
+// output): split shares still sum to the whole batch's gradient, and training lowers them.
 TEST_F(DeepfakeTrainerTest, PaletteTermsSplitExactlyAndFall) {
   DeepfakeLossOptions losses;
   losses.learning_rate = 2e-3f;
   losses.palette_weight = 1.f;
   losses.region_l1_weight = 1.f;
+  losses.dice_weight = 1.f;
   const std::vector<float> colors = {0.f, 0.f, 0.f, 250 / 255.f, 40 / 255.f, 40 / 255.f};
   const std::vector<float> weights = {0.6f, 2.5f};
   {
@@ -269,13 +302,15 @@ TEST_F(DeepfakeTrainerTest, PaletteTermsSplitExactlyAndFall) {
     const DeepfakeLosses whole = trainer.Backward(batch, 1.0);
     EXPECT_GT(whole.palette_a, 0.0);
     EXPECT_GT(whole.region_l1_a, 0.0);
+    EXPECT_GT(whole.dice_a, 0.0);
     const std::vector<float> full(trainer.gradients(), trainer.gradients() + trainer.num_gradients());
     std::vector<float> sum(full.size(), 0.f);
-    double palette = 0, region_l1 = 0;
+    double palette = 0, region_l1 = 0, dice = 0;
     for (const auto& [first, count] : {std::pair<int, int>{0, 4}, std::pair<int, int>{4, 2}}) {
       const DeepfakeLosses part = trainer.Backward(Slice(batch, first, count), count / 6.0);
       palette += part.palette_a;
       region_l1 += part.region_l1_a;
+      dice += part.dice_a;
       for (size_t i = 0; i < sum.size(); ++i) sum[i] += trainer.gradients()[i];
     }
     double max_err = 0, max_abs = 0;
@@ -286,11 +321,12 @@ TEST_F(DeepfakeTrainerTest, PaletteTermsSplitExactlyAndFall) {
     EXPECT_LT(max_err, 1e-4 * max_abs);
     EXPECT_NEAR(palette, whole.palette_a, 1e-5);
     EXPECT_NEAR(region_l1, whole.region_l1_a, 1e-5);
+    EXPECT_NEAR(dice, whole.dice_a, 1e-5);
   }
   DeepfakeModel model(TinyNetwork(), 7);
   DeepfakeTrainer trainer(&model, losses);
   trainer.SetPalette(colors, weights);
-  double first = 0, last = 0, first_l1 = 0, last_l1 = 0;
+  double first = 0, last = 0, first_l1 = 0, last_l1 = 0, first_dice = 0, last_dice = 0;
   const int steps = 60;
   for (int step = 0; step < steps; ++step) {
     const DeepfakeLosses l = trainer.Backward(MakeBatch(a_, b_, (step * 4) % 12, 4, step), 1.0);
@@ -298,14 +334,17 @@ TEST_F(DeepfakeTrainerTest, PaletteTermsSplitExactlyAndFall) {
     if (step < 5) {
       first += l.palette_a;
       first_l1 += l.region_l1_a;
+      first_dice += l.dice_a;
     }
     if (step >= steps - 5) {
       last += l.palette_a;
       last_l1 += l.region_l1_a;
+      last_dice += l.dice_a;
     }
   }
   EXPECT_LT(last, 0.5 * first) << "first 5 steps " << first / 5 << ", last 5 steps " << last / 5;
   EXPECT_LT(last_l1, 0.6 * first_l1) << "first 5 steps " << first_l1 / 5 << ", last 5 steps " << last_l1 / 5;
+  EXPECT_LT(last_dice, 0.6 * first_dice) << "first 5 steps " << first_dice / 5 << ", last 5 steps " << last_dice / 5;
   EXPECT_THROW(trainer.SetPalette({0.f, 0.f}, {1.f}), InvalidInputError);
 }
 
@@ -364,6 +403,42 @@ TEST_F(DeepfakeTrainerTest, PaletteHeadTranslatesIntoPaletteColoursAndLearnsTheL
   EXPECT_EQ(again, out);
   o.palette_colors = 1;
   EXPECT_THROW(DeepfakeModel(o, 7), InvalidInputError);
+}
+
+// Flip averaging makes D_A's labels mirror-equivariant: the translation of a mirror image is
+// the mirrored translation with its left and right regions swapped (up to pixels whose two
+// best regions tie within rounding).
+TEST_F(DeepfakeTrainerTest, FlipAveragedLabelsOfAMirrorImageAreTheMirroredLabels) {
+  DeepfakeNetworkOptions o = TinyNetwork();
+  o.palette_colors = 3;  // background, a left region (red), its right region (blue)
+  DeepfakeModel model(o, 11);
+  model.SetPalette({0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 0.f, 1.f});
+  EXPECT_THROW(model.SetFlipAverage({0, 2}), InvalidInputError);
+  EXPECT_THROW(model.SetFlipAverage({0, 2, 3}), InvalidInputError);
+  model.SetFlipAverage({0, 2, 1});
+  const int count = 4, one = kSize * kSize * 3;
+  std::vector<uint8_t> mirrored_inputs(a_.size());
+  for (int i = 0; i < count * kSize; ++i) {  // each row reversed
+    for (int x = 0; x < kSize; ++x) {
+      std::copy_n(&a_[(i * kSize + x) * 3], 3, &mirrored_inputs[(i * kSize + kSize - 1 - x) * 3]);
+    }
+  }
+  std::vector<uint8_t> out(count * one), out_of_mirror(count * one);
+  model.Translate(a_.data(), count, DeepfakeModel::Decoder::kA, out.data(), nullptr, nullptr);
+  model.Translate(mirrored_inputs.data(), count, DeepfakeModel::Decoder::kA, out_of_mirror.data(),
+                  nullptr, nullptr);
+  int differing = 0, red = 0, blue = 0;
+  for (int i = 0; i < count * kSize; ++i) {
+    for (int x = 0; x < kSize; ++x) {
+      const uint8_t* p = &out[(i * kSize + x) * 3];
+      const uint8_t* q = &out_of_mirror[(i * kSize + kSize - 1 - x) * 3];
+      red += p[0] == 255;
+      blue += p[2] == 255;
+      differing += p[0] != q[2] || p[1] != q[1] || p[2] != q[0];  // red and blue swapped
+    }
+  }
+  EXPECT_GT(red + blue, 0) << "the labels of the untrained head should not be all background";
+  EXPECT_LE(differing, 2) << "of " << count * kSize * kSize << " pixels";
 }
 
 TEST_F(DeepfakeTrainerTest, CheckpointContinuesBitwiseLikeTrainingStraightThrough) {
@@ -666,6 +741,39 @@ TEST(Augment, RepaintedSegmentationKeepsRegionsAndTheTarget) {
     EXPECT_EQ(target, plain_target);
     EXPECT_NE(input, plain_input);
   }
+}
+
+// A paired input's change of look: a function of the seed, within [0, 1]; a flat grey image
+// comes out lit by a ramp (brighter on one side), and a checkerboard is blurred for some seeds
+// and left sharp for others.
+TEST(Augment, AppearanceChangesAreSeededSmoothLightAndBlur) {
+  constexpr int n = 16;
+  int blurred = 0, sharp = 0, lit = 0;
+  for (uint64_t seed = 1; seed <= 24; ++seed) {
+    std::vector<float> grey(3 * n * n, 0.5f), checker(3 * n * n);
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        for (int c = 0; c < 3; ++c) checker[3 * (y * n + x) + c] = (x + y) % 2 ? 0.8f : 0.2f;
+    std::vector<float> grey2 = grey;
+    Rng a(seed, 0), b(seed, 0), c(seed, 0);
+    AugmentAppearance(grey.data(), n, &a);
+    AugmentAppearance(grey2.data(), n, &b);
+    EXPECT_EQ(grey, grey2) << "a function of the seed";
+    for (float v : grey) ASSERT_TRUE(v >= 0.f && v <= 1.f);
+    // Left and right columns of the green channel: a ramp, no noise between neighbours.
+    const float left = grey[3 * (8 * n) + 1], right = grey[3 * (8 * n + n - 1) + 1];
+    lit += std::abs(left - right) > 0.02f;
+    EXPECT_NEAR(grey[3 * (8 * n + 7) + 1], grey[3 * (8 * n + 8) + 1], 0.06f);
+    AugmentAppearance(checker.data(), n, &c);
+    // Contrast between neighbours in the middle, relative to the local mean.
+    const float p = checker[3 * (8 * n + 8) + 1], q = checker[3 * (8 * n + 9) + 1];
+    const float contrast = std::abs(p - q) / std::max(1e-3f, p + q);
+    if (contrast < 0.3f) ++blurred;
+    if (contrast > 0.4f) ++sharp;
+  }
+  EXPECT_GE(lit, 18);
+  EXPECT_GE(blurred, 4);
+  EXPECT_GE(sharp, 4);
 }
 
 // The background mask is the black that reaches the border: a black pupil enclosed by the

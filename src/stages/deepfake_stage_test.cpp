@@ -85,19 +85,21 @@ class DeepfakeStage : public ::testing::Test {
 
 testing::TempDir* DeepfakeStage::dir_ = nullptr;
 
-// (With the palette head and term on, whose region weights come from every rank's shard, and
-// paired frames on random backgrounds from a bank every rank draws alike: the same weights for
-// any number of ranks.)
+// (With the palette head, the palette and Dice terms on, whose region weights come from every
+// rank's shard, the input-resolution skip, and paired frames on random backgrounds from a bank
+// every rank draws alike: the same weights for any number of ranks.)
 TEST_F(DeepfakeStage, EveryRankHoldsTheSameWeightsOnTwoAndThreeRanks) {
   std::vector<std::string> region_weights;
   for (int ranks : {2, 3}) {
     const std::string out = File("ranks" + std::to_string(ranks) + ".h5");
-    auto r = RunFacecap(Train(out, 5) + " --palette-weight 1 --palette-head --paired " +
-                        File("b.h5") + " --random-background 1", ranks, kEnv);
+    auto r = RunFacecap(Train(out, 5) + " --palette-weight 1 --palette-head --dice-weight 1 "
+                        "--input-skip-width 4 --paired " + File("b.h5") + " --random-background 1",
+                        ranks, kEnv);
     ASSERT_EQ(r.code, 0) << r.output;
     const size_t at = r.output.find("region weights ");
     ASSERT_NE(at, std::string::npos) << r.output;
     region_weights.push_back(r.output.substr(at, r.output.find('\n', at) - at));
+    EXPECT_NE(r.output.find("dice_a "), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("weights identical on " + std::to_string(ranks) + " rank(s)"),
               std::string::npos) << r.output;
     EXPECT_NE(r.output.find("steps/s"), std::string::npos) << r.output;
@@ -115,13 +117,14 @@ TEST_F(DeepfakeStage, EveryRankHoldsTheSameWeightsOnTwoAndThreeRanks) {
   EXPECT_NE(region_weights[0].find("background"), std::string::npos) << region_weights[0];
 }
 
-// (With the palette head, random backgrounds and the decay of the learning rates over the last
-// half of the steps, so that these continue bitwise too.)
+// (With the palette head, the Dice term, the input-resolution skip, random backgrounds and the
+// decay of the learning rates over the last half of the steps, so that these continue bitwise
+// too.)
 TEST_F(DeepfakeStage, StoppedAndKilledRunsContinueToTheStraightResult) {
   const std::string straight = File("straight.h5"), stopped = File("stopped.h5"),
                     killed = File("killed.h5");
-  const std::string extra = " --palette-weight 1 --palette-head --paired " + File("b.h5") +
-                            " --random-background 0.5 --decay-fraction 0.5";
+  const std::string extra = " --palette-weight 1 --palette-head --dice-weight 1 --input-skip-width 4 "
+                            "--paired " + File("b.h5") + " --random-background 0.5 --decay-fraction 0.5";
   auto Train = [&](const std::string& out, int steps) { return DeepfakeStage::Train(out, steps) + extra; };
   ASSERT_EQ(RunFacecap(Train(straight, 10), 2, kEnv).code, 0);
   // SIGTERM after step 3: a checkpoint at step 3, exit 75, then a rerun continues.
@@ -180,9 +183,10 @@ TEST_F(DeepfakeStage, CheckpointsThatDoNotFitAreRefusedByName) {
   EXPECT_NE(truncated.output.find(out), std::string::npos) << truncated.output;
 }
 
+// (With a palette head, so that the labels are flip-averaged, the default.)
 TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
   const std::string model = File("infer_model.h5");
-  ASSERT_EQ(RunFacecap(Train(model, 3), 0, kEnv).code, 0);
+  ASSERT_EQ(RunFacecap(Train(model, 3) + " --palette-head --palette-weight 1", 0, kEnv).code, 0);
   const std::string one = File("one.h5"), two = File("two.h5");
   const std::string args = "deepfake infer --model " + model + " --frames " + File("b.h5") +
                            " --batch 5 --overlay-count 3 --out ";
@@ -190,6 +194,7 @@ TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
   ASSERT_EQ(r1.code, 0) << r1.output;
   auto r2 = RunFacecap(args + two, 2, kEnv);
   ASSERT_EQ(r2.code, 0) << r2.output;
+  EXPECT_NE(r2.output.find("flip-averaged labels"), std::string::npos) << r2.output;
   io::H5File f1 = io::H5File::OpenRead(one), f2 = io::H5File::OpenRead(two);
   EXPECT_EQ(f1.DatasetShape("/frames/translated"), (io::Shape{24, 32, 32, 3}));
   EXPECT_EQ(f1.DatasetShape("/frames/latent"), (io::Shape{24, 8 * 8 * 8}));
