@@ -11,9 +11,9 @@
 # SAMPLES (A, default 2000), CLIP_FRAMES (B, default 600), HELDOUT_FRAMES (default 120),
 # PAIRED_FRAMES (frames of each wild clip of other people used as paired A examples,
 # `deepfake train --paired`; default 0: none), PAIRED_PEOPLE (how many such people, up to 6;
-# default 1),
-# EXTRA (more `deepfake train` flags). The training budget is turned into a step count by a
-# short timed run of its own before the long run. Ends with the IoU per region and the
+# default 1), EXTRA (more `deepfake train` flags), INFER_EXTRA (more `deepfake infer` flags).
+# The training budget is turned into a step count by a short timed run of its own before the
+# long run. Ends with the IoU per region and the
 # tracking of the held-out clip through its translations (pose, weight and landmark errors).
 set -euo pipefail
 
@@ -78,8 +78,10 @@ echo "# ${rate} steps/s -> ${steps} steps"
 start=$(date +%s)
 "${mpi[@]}" "${train[@]}" --out deepfake.h5 --steps "${steps}" --progress-seconds 30 2>&1 | tee train.log | { grep -E "step [0-9]+/|model written|up to date" || true; } | tail -n 3
 echo "# training took $(( $(date +%s) - start )) s"
+# With a palette head, infer averages each frame's labels with its mirror image's by default
+# (flip_average); INFER_EXTRA=--no-flip-average scores the single pass.
 "${mpi[@]}" "${facecap}" deepfake infer --model deepfake.h5 --frames clip_heldout.h5 \
-  --out translated.h5 --overlay-count 6 >/dev/null 2>&1
+  --out translated.h5 --overlay-count 6 ${INFER_EXTRA:-} >/dev/null 2>&1
 "${iou}" --translated translated.h5 --truth clip_heldout.h5
 # Tracking through the translations (paper 000 Sec. 8) with the held-out person's own rig,
 # scored against the clip's truth: what the translation is worth to the tracker.

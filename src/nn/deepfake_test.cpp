@@ -267,6 +267,28 @@ TEST_F(DeepfakeTrainerTest, SharesOfASplitBatchSumToTheWholeBatchGradient) {
               whole.latent_discriminator, 1e-5);
 }
 
+// With image_gan_weight 0, G_image is left out: f_image reads 0 and its weights get no
+// gradient, while G_latent still learns.
+TEST_F(DeepfakeTrainerTest, ZeroImageGanWeightLeavesTheImageDiscriminatorOut) {
+  DeepfakeLossOptions losses;
+  losses.image_gan_weight = 0.f;
+  DeepfakeModel model(TinyNetwork(), 7);
+  DeepfakeTrainer trainer(&model, losses);
+  const DeepfakeLosses l = trainer.Backward(MakeBatch(a_, b_, 0, 4, 1), 1.0);
+  EXPECT_EQ(l.image_discriminator, 0.0);
+  EXPECT_EQ(l.image_adversarial, 0.0);
+  EXPECT_GT(l.latent_discriminator, 0.0);
+  double image_norm = 0, latent_norm = 0;
+  for (const TensorSlot& s : model.ParameterLayout()) {
+    double norm = 0;
+    for (int64_t i = 0; i < s.count; ++i) norm += std::abs(trainer.gradients()[s.offset + i]);
+    if (s.name.rfind("image_discriminator/", 0) == 0) image_norm += norm;
+    if (s.name.rfind("latent_discriminator/", 0) == 0) latent_norm += norm;
+  }
+  EXPECT_EQ(image_norm, 0.0);
+  EXPECT_GT(latent_norm, 0.0);
+}
+
 TEST_F(DeepfakeTrainerTest, LossFallsOnATinyDataset) {
   DeepfakeModel model(TinyNetwork(), 7);
   DeepfakeLossOptions losses;
