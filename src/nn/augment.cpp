@@ -87,14 +87,26 @@ void ResizeToFloat(const uint8_t* image, int source_size, int size, float* out) 
   }
 }
 
+std::vector<int> MirrorRegions(const std::vector<std::string>& names) {
+  std::vector<int> mirror(names.size());
+  for (size_t i = 0; i < names.size(); ++i) {
+    mirror[i] = static_cast<int>(i);
+    for (const auto& [from, to] : {std::pair<std::string, std::string>{"left_", "right_"}, {"right_", "left_"}}) {
+      if (names[i].rfind(from, 0) != 0) continue;
+      const auto it = std::find(names.begin(), names.end(), to + names[i].substr(from.size()));
+      if (it != names.end()) mirror[i] = static_cast<int>(it - names.begin());
+    }
+  }
+  return mirror;
+}
+
 SideSwap SideSwapOf(const std::vector<std::string>& names, const std::vector<uint32_t>& colors) {
   SideSwap sides;
-  const std::string left = "left_", right = "right_";
+  const std::vector<int> mirror = MirrorRegions(names);
   for (size_t i = 0; i < names.size() && i < colors.size(); ++i) {
-    if (names[i].rfind(left, 0) != 0) continue;
-    const std::string mirror = right + names[i].substr(left.size());
-    for (size_t j = 0; j < names.size() && j < colors.size(); ++j) {
-      if (names[j] == mirror) sides.pairs.emplace_back(colors[i], colors[j]);
+    const size_t j = static_cast<size_t>(mirror[i]);
+    if (names[i].rfind("left_", 0) == 0 && j != i && j < colors.size()) {
+      sides.pairs.emplace_back(colors[i], colors[j]);
     }
   }
   return sides;

@@ -83,6 +83,9 @@ struct SideSwap {
 };
 SideSwap SideSwapOf(const std::vector<std::string>& region_names,
                     const std::vector<uint32_t>& packed_colors);
+// The index of each region's mirror region by name (left_X <-> right_X); its own index for a
+// region without one.
+std::vector<int> MirrorRegions(const std::vector<std::string>& region_names);
 // Copies a uint8 RGB image [size, size, 3], each pixel of a left region's colour painted with
 // its right region's and the other way round; other pixels unchanged.
 void SwapSides(const uint8_t* image, int size, const SideSwap& sides, uint8_t* out);

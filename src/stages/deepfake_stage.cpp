@@ -441,20 +441,8 @@ void SetModelPalette(nn::DeepfakeModel* model, const Regions& regions, const std
 // The palette index of each palette colour's mirror image (PaletteColors' order: the
 // background, then the regions): left_X and right_X trade places, the others keep theirs.
 std::vector<int> PaletteMirror(const Regions& regions) {
-  std::vector<int> mirror(regions.names.size() + 1);
-  std::iota(mirror.begin(), mirror.end(), 0);
-  auto find = [&](const std::string& name) {
-    const auto it = std::find(regions.names.begin(), regions.names.end(), name);
-    return it == regions.names.end() ? -1 : static_cast<int>(it - regions.names.begin());
-  };
-  for (size_t r = 0; r < regions.names.size(); ++r) {
-    const std::string& name = regions.names[r];
-    for (const auto& [from, to] : {std::pair<std::string, std::string>{"left_", "right_"}, {"right_", "left_"}}) {
-      if (name.rfind(from, 0) != 0) continue;
-      const int other = find(to + name.substr(from.size()));
-      if (other >= 0) mirror[r + 1] = other + 1;
-    }
-  }
+  std::vector<int> mirror = {0};
+  for (int r : nn::MirrorRegions(regions.names)) mirror.push_back(r + 1);
   return mirror;
 }
 
