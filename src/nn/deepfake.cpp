@@ -252,6 +252,13 @@ void DeepfakeLosses::FromArray(const double* v) {
   region_l1_a = v[7];
 }
 
+void UpdateMovingAverage(const float* weights, int64_t count, int64_t steps_done, double decay,
+                         float* averaged) {
+  const double warm = (1.0 + static_cast<double>(steps_done)) / (10.0 + static_cast<double>(steps_done));
+  const float d = static_cast<float>(std::min(decay, warm));
+  for (int64_t i = 0; i < count; ++i) averaged[i] = d * averaged[i] + (1.f - d) * weights[i];
+}
+
 void SetTorchThreads(int threads) {
   torch::set_num_threads(std::max(1, threads));
   static bool interop_set = false;  // may be set once, before any parallel work

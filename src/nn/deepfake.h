@@ -183,6 +183,13 @@ struct DeepfakeLosses {
   void FromArray(const double* v);
 };
 
+// One step of the exponential moving average of the weights after `steps_done` optimizer
+// steps: averaged = d * averaged + (1 - d) * weights with
+// d = min(decay, (1 + steps_done) / (10 + steps_done)), so that the early average does not hold
+// on to the initial weights. Elementwise in a fixed order: the same on every rank.
+void UpdateMovingAverage(const float* weights, int64_t count, int64_t steps_done, double decay,
+                         float* averaged);
+
 // Uses `threads` intra-op threads in torch (and one inter-op thread).
 void SetTorchThreads(int threads);
 // True when libtorch was built with CUDA and a device is present.

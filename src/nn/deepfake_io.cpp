@@ -10,6 +10,7 @@ namespace {
 
 const char kWeights[] = "/weights";
 const char kTraining[] = "/training";
+const char kAveraged[] = "/averaged_weights";
 
 void WriteSlots(io::H5File* file, const std::string& group, const DeepfakeModel& model,
                 const float* buffer) {
@@ -108,6 +109,20 @@ void ReadWeights(const io::H5File& file, DeepfakeModel* model) {
   }
   ReadSlots(file, kWeights, *model, model->parameters());
   model->ParametersWritten();
+}
+
+void WriteAveragedWeights(io::H5File* file, const DeepfakeModel& model, const float* averaged,
+                          double decay) {
+  WriteSlots(file, kAveraged, model, averaged);
+  file->SetAttribute(kAveraged, "decay", decay);
+  file->SetAttribute(kAveraged, "meaning",
+                     std::string("exponential moving average of /weights over the training steps"));
+}
+
+bool ReadAveragedWeights(const io::H5File& file, const DeepfakeModel& model, float* averaged) {
+  if (!file.Exists(kAveraged)) return false;
+  ReadSlots(file, kAveraged, model, averaged);
+  return true;
 }
 
 void WriteTrainingState(io::H5File* file, DeepfakeTrainer* trainer, const TrainingState& state) {

@@ -7,6 +7,8 @@
 //   /optimizer/first_moment/<module path>   Adam m (checkpoints only)
 //   /optimizer/second_moment/<module path>  Adam v
 //   /training                               attributes: step, rng_seed, rng_streams
+//   /averaged_weights/<module path>         the exponential moving average of the weights
+//                                           (runs with average_decay > 0); attribute decay
 //
 // Reading checks every shape against the network and names every tensor that does not fit.
 #ifndef FACECAP_NN_DEEPFAKE_IO_H_
@@ -27,6 +29,12 @@ DeepfakeNetworkOptions ReadNetworkOptions(const io::H5File& file);
 void WriteWeights(io::H5File* file, DeepfakeModel* model);
 // FileIOError naming the file and every missing or wrongly shaped tensor.
 void ReadWeights(const io::H5File& file, DeepfakeModel* model);
+
+// The moving average of the weights, ParameterLayout() of the model, in /averaged_weights.
+void WriteAveragedWeights(io::H5File* file, const DeepfakeModel& model, const float* averaged,
+                          double decay);
+// False when the file has no averaged weights; FileIOError when they do not fit the network.
+bool ReadAveragedWeights(const io::H5File& file, const DeepfakeModel& model, float* averaged);
 
 // What a training run needs to continue exactly: Adam moments, the step, and the seed of the
 // counter-based sampling (batches are drawn from Rng(rng_seed, step * 65536 + rank), so

@@ -240,6 +240,32 @@ TEST_F(DeepfakeTrainerTest, LearningRateScaleScalesTheStep) {
   EXPECT_LT(max_err, 1e-3 * max_abs);
 }
 
+// The moving average of the weights: the first steps mostly follow the weights (the warm-up
+// decay (1 + t) / (10 + t)), later ones move by (1 - decay) of the difference, and over weights
+// that scatter around a value the average lies far nearer that value than the weights do.
+TEST(MovingAverage, WarmsUpThenAveragesOutTheScatter) {
+  std::vector<float> averaged = {0.f};
+  const float one = 1.f;
+  UpdateMovingAverage(&one, 1, 0, 0.999, averaged.data());
+  EXPECT_FLOAT_EQ(averaged[0], 0.9f);  // d = 1 / 10
+  averaged[0] = 0.f;
+  UpdateMovingAverage(&one, 1, 100000, 0.99, averaged.data());
+  EXPECT_NEAR(averaged[0], 0.01f, 1e-6f);  // d = decay once the warm-up is past it
+  Rng rng(3, 0);
+  averaged[0] = 0.f;
+  double scatter = 0, average_error = 0;
+  for (int t = 0; t < 4000; ++t) {
+    const float w = 2.f + static_cast<float>(rng.Normal());
+    UpdateMovingAverage(&w, 1, t, 0.99, averaged.data());
+    if (t >= 2000) {
+      scatter += (w - 2.0) * (w - 2.0);
+      average_error += (averaged[0] - 2.0) * (averaged[0] - 2.0);
+    }
+  }
+  // Decay 0.99 keeps (1 - d) / (1 + d) = 1/199 of the variance.
+  EXPECT_LT(average_error, scatter / 50);
+}
+
 TEST_F(DeepfakeTrainerTest, SharesOfASplitBatchSumToTheWholeBatchGradient) {
   const TrainingBatch batch = MakeBatch(a_, b_, 0, 6, 3);
   DeepfakeModel model(TinyNetwork(), 7);

@@ -64,6 +64,7 @@ struct DeepfakeTrainOptions {
   std::string out = "deepfake.h5";               // model file
   int steps = 2000;                              // training steps (global batches)
   double decay_fraction = 0;                     // last share of the steps with falling rates
+  double average_decay = 0;                      // moving average of the weights (0: none)
   int batch = 16;                                // global batch: images of A and of B per step
   int seed = 1;                                  // initial weights and batch sampling
   int checkpoint_every = 200;                    // steps between checkpoints (0: only at the end)
@@ -102,6 +103,9 @@ struct DeepfakeTrainOptions {
     v("decay_fraction", decay_fraction,
       "share of the steps at the end over which both learning rates fall linearly towards 0 "
       "(0: constant rates; a model trained further decays again before its new end)");
+    v("average_decay", average_decay,
+      "decay of an exponential moving average of the weights, kept beside them in the model "
+      "file (/averaged_weights), which infer uses by default (0: none; e.g. 0.999)");
     v("batch", batch, "global batch (images of A and of B per step), shared among the ranks");
     v("seed", seed, "seed of the initial weights and of the batch sampling");
     v("checkpoint_every", checkpoint_every, "steps between checkpoints (0: only at the end)");
@@ -118,6 +122,7 @@ struct DeepfakeTrainOptions {
   bool Check(std::string* why) const {
     if (steps < 0) { *why = "steps must be >= 0"; return false; }
     if (!(decay_fraction >= 0 && decay_fraction <= 1)) { *why = "decay_fraction must be in [0, 1]"; return false; }
+    if (!(average_decay >= 0 && average_decay < 1)) { *why = "average_decay must be in [0, 1)"; return false; }
     if (b_holdout_every < 0 || b_holdout_every == 1) { *why = "b_holdout_every must be 0 or >= 2"; return false; }
     if (!(paired_fraction >= 0 && paired_fraction <= 1)) { *why = "paired_fraction must be in [0, 1]"; return false; }
     if (batch < 1) { *why = "batch must be positive"; return false; }
@@ -152,6 +157,9 @@ struct DeepfakeInferOptions {
   // ignored for an RGB head or decoder B. It raised the benchmark's held-out mean IoU by
   // 0.014-0.027 (analysis/deepfake_iou.sh).
   bool flip_average = true;
+  // Translate with the model file's moving average of the weights (/averaged_weights, from
+  // training with average_decay > 0) when it has one; false: the last step's weights.
+  bool averaged = true;
   bool contours = true;                   // region borders of the translations (Sec. 4.1)
   int contour_min_points = 3;             // shorter border runs are dropped
   std::string overlay = "";               // PNG: frame, translation, borders on the frame
@@ -177,6 +185,9 @@ struct DeepfakeInferOptions {
       "with a palette head and decoder A, average D_A's region log-probabilities over each "
       "frame and its mirror image, left and right regions swapped (twice the time; ignored "
       "otherwise)");
+    v("averaged", averaged,
+      "use the model file's moving average of the weights when it has one (train's "
+      "average_decay); false: the weights of the last step");
     v("contours", contours, "extract region borders of the translations as polylines");
     v("contour_min_points", contour_min_points, "border runs with fewer points are dropped");
     v("overlay", overlay, "overlay PNG (empty: OUT with _contours.png; none: no PNG)");
@@ -498,11 +509,13 @@ void WriteRegions(io::H5File* f, const Regions& r) {
 void WriteModelFile(const std::string& path, const io::Provenance& provenance,
                     const std::string& identity, nn::DeepfakeTrainer* trainer,
                     const nn::TrainingState& state, const Regions& regions,
-                    const std::vector<uint64_t>& rank_hashes) {
+                    const std::vector<uint64_t>& rank_hashes,
+                    const std::vector<float>& averaged, double average_decay) {
   io::H5File f = io::H5File::CreateAtomic(path);
   f.WriteProvenance(provenance);
   nn::WriteWeights(&f, &trainer->model());
   nn::WriteTrainingState(&f, trainer, state);
+  if (!averaged.empty()) nn::WriteAveragedWeights(&f, trainer->model(), averaged.data(), average_decay);
   f.SetAttribute("/training", "identity_hash", identity);
   std::string hashes;
   for (uint64_t h : rank_hashes) hashes += (hashes.empty() ? "" : ",") + HexHash(h);
@@ -573,7 +586,9 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
     }
   }
 
-  // Continue from the checkpoint, or from a finished model trained for fewer steps.
+  // Continue from the checkpoint, or from a finished model trained for fewer steps. Rank 0
+  // keeps the moving average of the weights (average_decay), every rank's weights being alike.
+  std::vector<float> averaged;
   int64_t start_step = 0;
   int resumed = 0, from_final_model = 0;
   dist::CoordinateExceptions(comm, [&] {
@@ -591,6 +606,12 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
     }
     nn::ReadWeights(f, model.get());
     start_step = nn::ReadTrainingState(f, trainer.get()).step;
+    if (o.average_decay > 0) {
+      averaged.resize(model->num_parameters());
+      if (!nn::ReadAveragedWeights(f, *model, averaged.data())) {
+        throw FileIOError(source + ": no /averaged_weights to continue the moving average");
+      }
+    }
     resumed = 1;
     from_final_model = source == o.out ? 1 : 0;
     FC_INFO("deepfake train: continuing {} at step {}", source, start_step);
@@ -606,6 +627,10 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
     comm.Broadcast(trainer->second_moments(), trainer->num_gradients() * static_cast<int64_t>(sizeof(float)));
     trainer->OptimizerStateWritten();
     trainer->set_step(start_step);
+  }
+  if (comm.IsMainRank() && o.average_decay > 0 && averaged.empty()) {
+    model->ParametersToHost();
+    averaged.assign(model->parameters(), model->parameters() + model->num_parameters());
   }
   if (from_final_model && start_step >= o.steps) {
     if (comm.IsMainRank()) FC_INFO("deepfake train: {} is up to date ({} steps)", o.out, start_step);
@@ -638,7 +663,7 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
       if (!comm.IsMainRank()) return;
       const nn::TrainingState ts{steps_done, static_cast<uint64_t>(o.seed)};
       WriteModelFile(final ? o.out : checkpoint_path, provenance, identity, trainer.get(), ts,
-                     regions, hashes);
+                     regions, hashes, averaged, o.average_decay);
       if (final) std::filesystem::remove(checkpoint_path);
       FC_INFO("deepfake train: {} at step {}; weights identical on {} rank(s) (hash {})",
               final ? "model written" : "checkpoint", steps_done, comm.size(), HexHash(hashes[0]));
@@ -726,6 +751,11 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
     const nn::DeepfakeLosses local = trainer->Backward(batch, share);
     comm.SumReduce(trainer->gradients(), trainer->num_gradients());
     trainer->OptimizerStep(LearningRateScale(step, o.steps, o.decay_fraction));
+    if (!averaged.empty()) {
+      model->ParametersToHost();
+      nn::UpdateMovingAverage(model->parameters(), model->num_parameters(), step + 1,
+                              o.average_decay, averaged.data());
+    }
     MaybeInjectFault(comm, step + 1);
     // The losses of the global batch and whether any rank was asked to stop, in one reduction.
     double reduced[nn::DeepfakeLosses::kCount + 1];
@@ -782,6 +812,7 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
   nn::SetTorchThreads(threads);
 
   std::unique_ptr<nn::DeepfakeModel> model;
+  int averaged = 0;  // translating with the model file's moving average of the weights
   io::H5File frames_file;
   std::string dataset;
   int64_t num_frames = 0;
@@ -791,6 +822,10 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
     io::H5File model_file = io::H5File::OpenRead(o.model);
     model = std::make_unique<nn::DeepfakeModel>(nn::ReadNetworkOptions(model_file), 0, o.device);
     nn::ReadWeights(model_file, model.get());
+    if (o.averaged && nn::ReadAveragedWeights(model_file, *model, model->parameters())) {
+      model->ParametersWritten();
+      averaged = 1;
+    }
     regions = ReadRegions(model_file);
     SetModelPalette(model.get(), regions, o.model);
     if (o.flip_average && model->options().palette_colors > 0 && o.decoder == "A") {
@@ -961,7 +996,8 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
     }
     f.Commit();
     const bool flipped = o.flip_average && model->options().palette_colors > 0 && o.decoder == "A";
-    FC_INFO("deepfake infer: {} frames -> {}{}", num_frames, o.out, flipped ? " (flip-averaged labels)" : "");
+    FC_INFO("deepfake infer: {} frames -> {}{}{}", num_frames, o.out,
+            averaged ? " (averaged weights)" : "", flipped ? " (flip-averaged labels)" : "");
   });
 }
 

@@ -117,14 +117,15 @@ TEST_F(DeepfakeStage, EveryRankHoldsTheSameWeightsOnTwoAndThreeRanks) {
   EXPECT_NE(region_weights[0].find("background"), std::string::npos) << region_weights[0];
 }
 
-// (With the palette head, the Dice term, the input-resolution skip, random backgrounds and the
-// decay of the learning rates over the last half of the steps, so that these continue bitwise
-// too.)
+// (With the palette head, the Dice term, the input-resolution skip, random backgrounds, the
+// decay of the learning rates over the last half of the steps and the moving average of the
+// weights, so that these continue bitwise too.)
 TEST_F(DeepfakeStage, StoppedAndKilledRunsContinueToTheStraightResult) {
   const std::string straight = File("straight.h5"), stopped = File("stopped.h5"),
                     killed = File("killed.h5");
   const std::string extra = " --palette-weight 1 --palette-head --dice-weight 1 --input-skip-width 4 "
-                            "--paired " + File("b.h5") + " --random-background 0.5 --decay-fraction 0.5";
+                            "--paired " + File("b.h5") + " --random-background 0.5 --decay-fraction 0.5 "
+                            "--average-decay 0.9";
   auto Train = [&](const std::string& out, int steps) { return DeepfakeStage::Train(out, steps) + extra; };
   ASSERT_EQ(RunFacecap(Train(straight, 10), 2, kEnv).code, 0);
   // SIGTERM after step 3: a checkpoint at step 3, exit 75, then a rerun continues.
@@ -147,6 +148,8 @@ TEST_F(DeepfakeStage, StoppedAndKilledRunsContinueToTheStraightResult) {
     EXPECT_EQ(StoredWeightsHash(other), StoredWeightsHash(straight)) << other;
     EXPECT_EQ(Dataset(other, "/optimizer/second_moment/decoder_a/rgb/weight"),
               Dataset(straight, "/optimizer/second_moment/decoder_a/rgb/weight"));
+    EXPECT_EQ(Dataset(other, "/averaged_weights/encoder/code/weight"),
+              Dataset(straight, "/averaged_weights/encoder/code/weight"));
     EXPECT_EQ(io::H5File::OpenRead(other).GetIntAttribute("/training", "step"), 10);
   }
   // Up to date now; more steps continue the finished model.
@@ -183,10 +186,12 @@ TEST_F(DeepfakeStage, CheckpointsThatDoNotFitAreRefusedByName) {
   EXPECT_NE(truncated.output.find(out), std::string::npos) << truncated.output;
 }
 
-// (With a palette head, so that the labels are flip-averaged, the default.)
+// (With a palette head, so that the labels are flip-averaged, and the moving average of the
+// weights, which infer uses unless told not to: both the defaults.)
 TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
   const std::string model = File("infer_model.h5");
-  ASSERT_EQ(RunFacecap(Train(model, 3) + " --palette-head --palette-weight 1", 0, kEnv).code, 0);
+  ASSERT_EQ(RunFacecap(Train(model, 3) + " --palette-head --palette-weight 1 --average-decay 0.5",
+                       0, kEnv).code, 0);
   const std::string one = File("one.h5"), two = File("two.h5");
   const std::string args = "deepfake infer --model " + model + " --frames " + File("b.h5") +
                            " --batch 5 --overlay-count 3 --out ";
@@ -195,6 +200,12 @@ TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
   auto r2 = RunFacecap(args + two, 2, kEnv);
   ASSERT_EQ(r2.code, 0) << r2.output;
   EXPECT_NE(r2.output.find("flip-averaged labels"), std::string::npos) << r2.output;
+  EXPECT_NE(r2.output.find("averaged weights"), std::string::npos) << r2.output;
+  auto last = RunFacecap(args + File("last.h5") + " --no-averaged", 0, kEnv);
+  ASSERT_EQ(last.code, 0) << last.output;
+  EXPECT_EQ(last.output.find("averaged weights"), std::string::npos) << last.output;
+  EXPECT_NE(io::H5File::OpenRead(File("last.h5")).Read<float>("/frames/latent", {}),
+            io::H5File::OpenRead(one).Read<float>("/frames/latent", {}));
   io::H5File f1 = io::H5File::OpenRead(one), f2 = io::H5File::OpenRead(two);
   EXPECT_EQ(f1.DatasetShape("/frames/translated"), (io::Shape{24, 32, 32, 3}));
   EXPECT_EQ(f1.DatasetShape("/frames/latent"), (io::Shape{24, 8 * 8 * 8}));
