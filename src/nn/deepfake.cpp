@@ -284,6 +284,7 @@ struct DeepfakeModel::Impl {
   torch::Tensor flat;           // every parameter, on the device
   torch::Tensor host;           // host mirror of `flat` (only when the device is not the CPU)
   torch::Tensor mirror;         // palette index of each colour's mirror (SetFlipAverage)
+  int shift_average = 0;        // SetShiftAverage
 
   bool on_cpu() const { return device.is_cpu(); }
   float* host_data() { return on_cpu() ? flat.data_ptr<float>() : host.data_ptr<float>(); }
@@ -403,6 +404,11 @@ void DeepfakeModel::SetFlipAverage(const std::vector<int>& mirror) {
   impl_->mirror = torch::tensor(index, torch::kInt64).to(impl_->device);
 }
 
+void DeepfakeModel::SetShiftAverage(int pixels) {
+  if (pixels < 0) throw InvalidInputError("deepfake: the shift of shift averaging must be >= 0");
+  impl_->shift_average = pixels;
+}
+
 uint64_t DeepfakeModel::ParameterHash() {
   ParametersToHost();
   const auto* bytes = reinterpret_cast<const uint8_t*>(parameters());
@@ -430,16 +436,44 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
   } else if (m.options.palette_colors == 0) {
     y = m.decoder_a->forward(encoded);
   } else {
-    torch::Tensor logits;
-    m.decoder_a->forward(encoded, &logits);
-    if (m.mirror.defined()) {
-      // The mirror image's logits, mirrored back and their left and right regions swapped.
-      torch::Tensor mirrored;
-      m.decoder_a->forward(m.encoder->forward(x.flip({3})), &mirrored);
-      logits = torch::log_softmax(logits, 1) +
-               torch::log_softmax(mirrored.flip({3}).index_select(1, m.mirror), 1);
+    // D_A's region log-probabilities of the image moved by (dx, dy) pixels (edges repeated),
+    // moved back, and with the mirror image's, mirrored back with left and right swapped.
+    auto log_probabilities = [&](int dx, int dy) {
+      auto moved = [&](const torch::Tensor& t, int sx, int sy) {
+        if (sx == 0 && sy == 0) return t;
+        namespace F = torch::nn::functional;
+        const torch::Tensor padded = F::pad(
+            t, F::PadFuncOptions({std::max(sx, 0), std::max(-sx, 0), std::max(sy, 0), std::max(-sy, 0)})
+                   .mode(torch::kReplicate));
+        return padded.slice(2, std::max(-sy, 0), std::max(-sy, 0) + size)
+            .slice(3, std::max(-sx, 0), std::max(-sx, 0) + size);
+      };
+      const torch::Tensor xs = moved(x, dx, dy);
+      torch::Tensor logits;
+      if (dx == 0 && dy == 0) {
+        m.decoder_a->forward(encoded, &logits);
+      } else {
+        m.decoder_a->forward(m.encoder->forward(xs), &logits);
+      }
+      if (!m.mirror.defined() && m.shift_average == 0) return logits;  // a single pass
+      torch::Tensor sum = torch::log_softmax(moved(logits, -dx, -dy), 1);
+      if (m.mirror.defined()) {
+        torch::Tensor mirrored;
+        m.decoder_a->forward(m.encoder->forward(xs.flip({3})), &mirrored);
+        sum += torch::log_softmax(moved(mirrored.flip({3}), -dx, -dy).index_select(1, m.mirror), 1);
+      }
+      return sum;
+    };
+    torch::Tensor sum = log_probabilities(0, 0);
+    const int d = m.shift_average;
+    if (d > 0) {
+      for (int dy = -d; dy <= d; dy += d) {
+        for (int dx = -d; dx <= d; dx += d) {
+          if (dx != 0 || dy != 0) sum += log_probabilities(dx, dy);
+        }
+      }
     }
-    y = m.decoder_a->Labels(logits);
+    y = m.decoder_a->Labels(sum);
   }
   const int64_t latent = m.options.LatentSize();
   if (translated) {

@@ -227,6 +227,12 @@ class DeepfakeModel {
   // likely region is taken. Empty: off (the default). InvalidInputError when the size differs
   // from options().palette_colors or an index is out of range.
   void SetFlipAverage(const std::vector<int>& mirror);
+  // Shift averaging of the palette head at inference: D_A's log-probabilities are summed over
+  // the image and the image moved by `pixels` in x, y or both, in either direction (eight
+  // moves, edges repeated), each moved back; with SetFlipAverage each pass has its mirror image
+  // too. The encoder's strided grid then samples every frame at other phases. 0: off (the
+  // default); InvalidInputError when negative.
+  void SetShiftAverage(int pixels);
   // FNV-1a hash of the parameter bytes (to compare ranks).
   uint64_t ParameterHash();
 

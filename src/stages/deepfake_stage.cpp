@@ -157,6 +157,10 @@ struct DeepfakeInferOptions {
   // ignored for an RGB head or decoder B. It raised the benchmark's held-out mean IoU by
   // 0.014-0.027 (analysis/deepfake_iou.sh).
   bool flip_average = true;
+  // With a palette head and decoder A: also average over the frame moved by this many pixels
+  // in x, y or both, either way, each moved back (with flip_average, each with its mirror
+  // image): nine times the cost per frame. 0: off.
+  int shift_average = 0;
   // Translate with the model file's moving average of the weights (/averaged_weights, from
   // training with average_decay > 0) when it has one; false: the last step's weights.
   bool averaged = true;
@@ -185,6 +189,10 @@ struct DeepfakeInferOptions {
       "with a palette head and decoder A, average D_A's region log-probabilities over each "
       "frame and its mirror image, left and right regions swapped (twice the time; ignored "
       "otherwise)");
+    v("shift_average", shift_average,
+      "with a palette head and decoder A, also average D_A's region log-probabilities over the "
+      "frame moved by this many pixels in x, y or both, either way, each moved back (nine "
+      "times the time; 0: off)");
     v("averaged", averaged,
       "use the model file's moving average of the weights when it has one (train's "
       "average_decay); false: the weights of the last step");
@@ -199,6 +207,7 @@ struct DeepfakeInferOptions {
     if (batch < 1) { *why = "batch must be positive"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
     if (device != "cpu" && device != "cuda") { *why = "device must be cpu or cuda"; return false; }
+    if (shift_average < 0) { *why = "shift_average must be >= 0"; return false; }
     if (contour_min_points < 2) { *why = "contour_min_points must be >= 2"; return false; }
     if (overlay_count < 1 || overlay_scale < 1 || overlay_scale > 16) {
       *why = "overlay_count must be positive and overlay_scale in [1, 16]";
@@ -831,6 +840,7 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
     if (o.flip_average && model->options().palette_colors > 0 && o.decoder == "A") {
       model->SetFlipAverage(PaletteMirror(regions));
     }
+    if (model->options().palette_colors > 0 && o.decoder == "A") model->SetShiftAverage(o.shift_average);
     frames_file = io::H5File::OpenRead(o.frames);
     dataset = FindImageDataset(frames_file, o.dataset);
     const io::Shape shape = frames_file.CheckShape(dataset, {-1, -1, -1, 3});
@@ -995,9 +1005,10 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
       FC_INFO("deepfake infer: {} borders ({} points) over {} frames", rows, points.size() / 2, num_frames);
     }
     f.Commit();
-    const bool flipped = o.flip_average && model->options().palette_colors > 0 && o.decoder == "A";
-    FC_INFO("deepfake infer: {} frames -> {}{}{}", num_frames, o.out,
-            averaged ? " (averaged weights)" : "", flipped ? " (flip-averaged labels)" : "");
+    const bool labels = model->options().palette_colors > 0 && o.decoder == "A";
+    FC_INFO("deepfake infer: {} frames -> {}{}{}{}", num_frames, o.out,
+            averaged ? " (averaged weights)" : "", labels && o.flip_average ? " (flip-averaged labels)" : "",
+            labels && o.shift_average > 0 ? " (shift-averaged labels)" : "");
   });
 }
 
