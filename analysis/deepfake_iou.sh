@@ -11,7 +11,8 @@
 # SAMPLES (A, default 2000), CLIP_FRAMES (B, default 600), HELDOUT_FRAMES (default 120),
 # PAIRED_FRAMES (frames of each wild clip of other people used as paired A examples,
 # `deepfake train --paired`; default 0: none), PAIRED_PEOPLE (how many such people, up to 6;
-# default 1), EXTRA (more `deepfake train` flags), INFER_EXTRA (more `deepfake infer` flags).
+# default 1), EXTRA (more `deepfake train` flags), INFER_EXTRA (more `deepfake infer` flags),
+# TRACK_EXTRA (`track` flags; default `--weight-prior 30`, as jobs/demo.toml tracks translations).
 # The training budget is turned into a step count by a short timed run of its own before the
 # long run. Ends with the IoU per region and the
 # tracking of the held-out clip through its translations (pose, weight and landmark errors).
@@ -86,6 +87,7 @@ echo "# training took $(( $(date +%s) - start )) s"
 # Tracking through the translations (paper 000 Sec. 8) with the held-out person's own rig,
 # scored against the clip's truth: what the translation is worth to the tracker.
 "${mpi[@]}" "${facecap}" track --rig clip_heldout.h5 --targets translated.h5 \
-  --targets-dataset /frames/translated --init previous --out track.h5 >/dev/null 2>&1
+  --targets-dataset /frames/translated --init previous --out track.h5 ${TRACK_EXTRA---weight-prior 30} \
+  >/dev/null 2>&1
 "${facecap}" eval track --truth clip_heldout.h5 --track track.h5 --no-json | sed 's/^/track: /'
 echo "# preview: ${work_dir}/deepfake_preview.png, contours: ${work_dir}/translated_contours.png"
