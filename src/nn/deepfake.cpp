@@ -285,6 +285,7 @@ struct DeepfakeModel::Impl {
   torch::Tensor host;           // host mirror of `flat` (only when the device is not the CPU)
   torch::Tensor mirror;         // palette index of each colour's mirror (SetFlipAverage)
   int shift_average = 0;        // SetShiftAverage
+  torch::Tensor label_bias;     // [1, K, 1, 1] added to the mean log-probabilities (SetLabelBias)
 
   bool on_cpu() const { return device.is_cpu(); }
   float* host_data() { return on_cpu() ? flat.data_ptr<float>() : host.data_ptr<float>(); }
@@ -409,6 +410,18 @@ void DeepfakeModel::SetShiftAverage(int pixels) {
   impl_->shift_average = pixels;
 }
 
+void DeepfakeModel::SetLabelBias(const std::vector<float>& bias) {
+  if (bias.empty()) {
+    impl_->label_bias = torch::Tensor();
+    return;
+  }
+  if (static_cast<int>(bias.size()) != impl_->options.palette_colors) {
+    throw InvalidInputError("deepfake: " + std::to_string(bias.size()) + " label biases for " +
+                            std::to_string(impl_->options.palette_colors) + " palette colours");
+  }
+  impl_->label_bias = torch::tensor(bias, torch::kFloat32).view({1, -1, 1, 1}).to(impl_->device);
+}
+
 uint64_t DeepfakeModel::ParameterHash() {
   ParametersToHost();
   const auto* bytes = reinterpret_cast<const uint8_t*>(parameters());
@@ -455,7 +468,9 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
       } else {
         m.decoder_a->forward(m.encoder->forward(xs), &logits);
       }
-      if (!m.mirror.defined() && m.shift_average == 0) return logits;  // a single pass
+      if (!m.mirror.defined() && m.shift_average == 0 && !m.label_bias.defined()) {
+        return logits;  // a single pass
+      }
       torch::Tensor sum = torch::log_softmax(moved(logits, -dx, -dy), 1);
       if (m.mirror.defined()) {
         torch::Tensor mirrored;
@@ -465,6 +480,7 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
       return sum;
     };
     torch::Tensor sum = log_probabilities(0, 0);
+    int passes = m.mirror.defined() ? 2 : 1;
     const int d = m.shift_average;
     if (d > 0) {
       for (int dy = -d; dy <= d; dy += d) {
@@ -472,7 +488,10 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
           if (dx != 0 || dy != 0) sum += log_probabilities(dx, dy);
         }
       }
+      passes *= 9;
     }
+    // The bias is added to the mean log-probability of the passes (to their sum `passes` times).
+    if (m.label_bias.defined()) sum += static_cast<double>(passes) * m.label_bias;
     y = m.decoder_a->Labels(sum);
   }
   const int64_t latent = m.options.LatentSize();

@@ -233,6 +233,14 @@ class DeepfakeModel {
   // too. The encoder's strided grid then samples every frame at other phases. 0: off (the
   // default); InvalidInputError when negative.
   void SetShiftAverage(int pixels);
+  // A per-colour bias b_k added to D_A's log-probabilities (their mean over the passes of flip
+  // and shift averaging) before each pixel takes its most likely colour; empty: none (the
+  // default). With b_k = -log w_k for the class weights w_k of the palette term's
+  // cross-entropy, the labels are those of the network's estimate of the unweighted posterior:
+  // training with weights w_k makes it estimate p_k w_k (normalised), which moves every border
+  // into the common region beside a rare one. InvalidInputError when the size is not
+  // options().palette_colors.
+  void SetLabelBias(const std::vector<float>& bias);
   // FNV-1a hash of the parameter bytes (to compare ranks).
   uint64_t ParameterHash();
 

@@ -538,6 +538,47 @@ TEST_F(DeepfakeTrainerTest, ShiftAveragedLabelsKeepTheMirrorEquivariance) {
   EXPECT_LE(differing, 2) << "of " << count * kSize * kSize << " pixels";
 }
 
+// The label bias moves each pixel's decision, and only as an argmax over biased
+// log-probabilities can: a bias common to every colour changes nothing, raising one colour's
+// bias keeps every pixel it had and can only add pixels, a large one takes them all; the
+// result is the same with the mirror and shift passes averaged.
+TEST_F(DeepfakeTrainerTest, LabelBiasMovesDecisionsMonotonically) {
+  DeepfakeNetworkOptions o = TinyNetwork();
+  o.palette_colors = 3;
+  DeepfakeModel model(o, 11);
+  model.SetPalette({0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 0.f, 1.f});
+  model.SetFlipAverage({0, 2, 1});
+  model.SetShiftAverage(1);
+  EXPECT_THROW(model.SetLabelBias({0.f, 1.f}), InvalidInputError);
+  const int count = 4, pixels = count * kSize * kSize;
+  auto labels = [&](const std::vector<float>& bias) {
+    model.SetLabelBias(bias);
+    std::vector<uint8_t> out(pixels * 3);
+    model.Translate(a_.data(), count, DeepfakeModel::Decoder::kA, out.data(), nullptr, nullptr);
+    std::vector<int> l(pixels);
+    for (int i = 0; i < pixels; ++i) l[i] = out[3 * i] == 255 ? 1 : out[3 * i + 2] == 255 ? 2 : 0;
+    return l;
+  };
+  const std::vector<int> plain = labels({});
+  EXPECT_EQ(labels({0.f, 0.f, 0.f}), plain);
+  EXPECT_EQ(labels({0.7f, 0.7f, 0.7f}), plain);
+  auto count_of = [](const std::vector<int>& l, int k) { return std::count(l.begin(), l.end(), k); };
+  int64_t previous = count_of(plain, 1);
+  std::vector<int> before = plain;
+  for (float b : {0.2f, 0.5f, 1.f, 2.f}) {
+    const std::vector<int> raised = labels({0.f, b, 0.f});
+    for (int i = 0; i < pixels; ++i) {
+      if (before[i] == 1) ASSERT_EQ(raised[i], 1) << "pixel " << i << " at bias " << b;
+      if (raised[i] != 1) ASSERT_EQ(raised[i], plain[i]) << "pixel " << i << " at bias " << b;
+    }
+    EXPECT_GE(count_of(raised, 1), previous);
+    previous = count_of(raised, 1);
+    before = raised;
+  }
+  EXPECT_GT(previous, count_of(plain, 1));
+  EXPECT_EQ(count_of(labels({0.f, 0.f, 50.f}), 2), pixels);
+}
+
 TEST_F(DeepfakeTrainerTest, CheckpointContinuesBitwiseLikeTrainingStraightThrough) {
   testing::TempDir dir;
   auto train = [&](DeepfakeTrainer* trainer, int from, int to) {

@@ -161,6 +161,10 @@ struct DeepfakeInferOptions {
   // in x, y or both, either way, each moved back (with flip_average, each with its mirror
   // image): nine times the cost per frame. 0: off.
   int shift_average = 0;
+  // With a palette head and decoder A: each pixel's label maximizes log p_k - a log w_k over
+  // the colours k, for the class weights w_k of the palette terms (the model file's
+  // /training/region_weights). 0: the network's own most likely colour.
+  double prior_correction = 0;
   // Translate with the model file's moving average of the weights (/averaged_weights, from
   // training with average_decay > 0) when it has one; false: the last step's weights.
   bool averaged = true;
@@ -193,6 +197,12 @@ struct DeepfakeInferOptions {
       "with a palette head and decoder A, also average D_A's region log-probabilities over the "
       "frame moved by this many pixels in x, y or both, either way, each moved back (nine "
       "times the time; 0: off)");
+    v("prior_correction", prior_correction,
+      "with a palette head and decoder A, subtract this multiple of the log of each region's "
+      "class weight in the palette terms (the model file's /training/region_weights) from "
+      "D_A's log-probabilities before each pixel takes its most likely region; training with "
+      "the weights moved borders into the common regions beside rare ones (0: off; ignored "
+      "for a model without region weights)");
     v("averaged", averaged,
       "use the model file's moving average of the weights when it has one (train's "
       "average_decay); false: the weights of the last step");
@@ -519,7 +529,8 @@ void WriteModelFile(const std::string& path, const io::Provenance& provenance,
                     const std::string& identity, nn::DeepfakeTrainer* trainer,
                     const nn::TrainingState& state, const Regions& regions,
                     const std::vector<uint64_t>& rank_hashes,
-                    const std::vector<float>& averaged, double average_decay) {
+                    const std::vector<float>& averaged, double average_decay,
+                    const std::vector<float>& region_weights) {
   io::H5File f = io::H5File::CreateAtomic(path);
   f.WriteProvenance(provenance);
   nn::WriteWeights(&f, &trainer->model());
@@ -531,6 +542,9 @@ void WriteModelFile(const std::string& path, const io::Provenance& provenance,
   f.SetAttribute("/training", "rank_weight_hashes", hashes);
   f.SetAttribute("/weights", "hash", HexHash(rank_hashes.at(0)));
   WriteRegions(&f, regions);
+  // The palette terms' class weights (palette order: the background, then the regions), which
+  // infer's prior correction divides back out.
+  if (!region_weights.empty()) f.WriteVector<float>("/training/region_weights", region_weights);
   f.Commit();
 }
 
@@ -666,13 +680,14 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
       io::WriteImage(preview_path, trainer->PreviewGrid(preview_a.data(), preview_b.data(), preview_rows));
     }
   };
+  std::vector<float> region_weights;  // the palette terms' class weights (set below)
   auto checkpoint = [&](int64_t steps_done, bool final) {
     const std::vector<uint64_t> hashes = CheckSameWeights(comm, model.get(), steps_done);
     dist::CoordinateExceptions(comm, [&] {
       if (!comm.IsMainRank()) return;
       const nn::TrainingState ts{steps_done, static_cast<uint64_t>(o.seed)};
       WriteModelFile(final ? o.out : checkpoint_path, provenance, identity, trainer.get(), ts,
-                     regions, hashes, averaged, o.average_decay);
+                     regions, hashes, averaged, o.average_decay, region_weights);
       if (final) std::filesystem::remove(checkpoint_path);
       FC_INFO("deepfake train: {} at step {}; weights identical on {} rank(s) (hash {})",
               final ? "model written" : "checkpoint", steps_done, comm.size(), HexHash(hashes[0]));
@@ -699,6 +714,7 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
   if (o.loss.palette_weight > 0 || o.loss.region_l1_weight > 0 || o.loss.dice_weight > 0) {
     const PaletteWeights pw = RegionWeights(regions, {&shard_a, &paired_target}, comm);
     trainer->SetPalette(pw.colors, pw.weights);
+    region_weights = pw.weights;
     if (comm.IsMainRank()) FC_INFO("deepfake train: region weights of the palette terms {}", pw.summary);
   }
   std::vector<uint8_t> repainted(3LL * shard_a.size * shard_a.size);
@@ -822,6 +838,7 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
 
   std::unique_ptr<nn::DeepfakeModel> model;
   int averaged = 0;  // translating with the model file's moving average of the weights
+  int corrected = 0;  // labels with the prior correction
   io::H5File frames_file;
   std::string dataset;
   int64_t num_frames = 0;
@@ -840,7 +857,20 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
     if (o.flip_average && model->options().palette_colors > 0 && o.decoder == "A") {
       model->SetFlipAverage(PaletteMirror(regions));
     }
-    if (model->options().palette_colors > 0 && o.decoder == "A") model->SetShiftAverage(o.shift_average);
+    if (model->options().palette_colors > 0 && o.decoder == "A") {
+      model->SetShiftAverage(o.shift_average);
+      if (o.prior_correction != 0 && model_file.Exists("/training/region_weights")) {
+        const auto weights =
+            model_file.ReadVector<float>("/training/region_weights", model->options().palette_colors);
+        std::vector<float> bias(weights.size(), 0.f);
+        for (size_t k = 0; k < weights.size(); ++k) {
+          // A class absent from the targets (weight 0) keeps its own log-probability.
+          if (weights[k] > 0) bias[k] = static_cast<float>(-o.prior_correction * std::log(weights[k]));
+        }
+        model->SetLabelBias(bias);
+        corrected = 1;
+      }
+    }
     frames_file = io::H5File::OpenRead(o.frames);
     dataset = FindImageDataset(frames_file, o.dataset);
     const io::Shape shape = frames_file.CheckShape(dataset, {-1, -1, -1, 3});
@@ -1006,9 +1036,10 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
     }
     f.Commit();
     const bool labels = model->options().palette_colors > 0 && o.decoder == "A";
-    FC_INFO("deepfake infer: {} frames -> {}{}{}{}", num_frames, o.out,
+    FC_INFO("deepfake infer: {} frames -> {}{}{}{}{}", num_frames, o.out,
             averaged ? " (averaged weights)" : "", labels && o.flip_average ? " (flip-averaged labels)" : "",
-            labels && o.shift_average > 0 ? " (shift-averaged labels)" : "");
+            labels && o.shift_average > 0 ? " (shift-averaged labels)" : "",
+            corrected ? fmt::format(" (prior correction {})", o.prior_correction) : std::string());
   });
 }
 

@@ -187,14 +187,21 @@ TEST_F(DeepfakeStage, CheckpointsThatDoNotFitAreRefusedByName) {
 }
 
 // (With a palette head, so that the labels are flip-averaged, and the moving average of the
-// weights, which infer uses unless told not to: both the defaults; and shift averaging.)
+// weights, which infer uses unless told not to: both the defaults; shift averaging and the
+// prior correction of the palette term's class weights, which training stores.)
 TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
   const std::string model = File("infer_model.h5");
   ASSERT_EQ(RunFacecap(Train(model, 3) + " --palette-head --palette-weight 1 --average-decay 0.5",
                        0, kEnv).code, 0);
   const std::string one = File("one.h5"), two = File("two.h5");
   const std::string args = "deepfake infer --model " + model + " --frames " + File("b.h5") +
-                           " --batch 5 --overlay-count 3 --shift-average 1 --out ";
+                           " --batch 5 --overlay-count 3 --shift-average 1 --prior-correction 0.5 --out ";
+  {
+    io::H5File m = io::H5File::OpenRead(model);
+    const std::vector<float> weights = m.ReadVector<float>("/training/region_weights");
+    EXPECT_EQ(static_cast<int64_t>(weights.size()), m.GetIntAttribute("/weights", "palette_colors"));
+    EXPECT_GT(weights.front(), 0.f);  // the background
+  }
   auto r1 = RunFacecap(args + one, 0, kEnv);
   ASSERT_EQ(r1.code, 0) << r1.output;
   auto r2 = RunFacecap(args + two, 2, kEnv);
@@ -202,6 +209,7 @@ TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
   EXPECT_NE(r2.output.find("flip-averaged labels"), std::string::npos) << r2.output;
   EXPECT_NE(r2.output.find("averaged weights"), std::string::npos) << r2.output;
   EXPECT_NE(r2.output.find("shift-averaged labels"), std::string::npos) << r2.output;
+  EXPECT_NE(r2.output.find("prior correction 0.5"), std::string::npos) << r2.output;
   auto last = RunFacecap(args + File("last.h5") + " --no-averaged", 0, kEnv);
   ASSERT_EQ(last.code, 0) << last.output;
   EXPECT_EQ(last.output.find("averaged weights"), std::string::npos) << last.output;
