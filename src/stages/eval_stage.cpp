@@ -5,6 +5,7 @@
 // error of the tracked rig's 68 landmarks against the landmarks dlib detected in the crops,
 // on all frames with a face and on the frames held out of deepfake training.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -34,6 +35,7 @@ struct EvalTrackOptions {
   std::string rig = "";
   bool json = true;                // print the metrics as one JSON object (else a table)
   std::string out = "";            // also write the JSON to this file (empty: none)
+  bool per_frame = false;          // add each scored frame's errors to the JSON object
 
   template <class V>
   void Visit(V&& v) {
@@ -42,6 +44,9 @@ struct EvalTrackOptions {
     v("rig", rig, "rig file of the truth (empty: the truth file's /rig)");
     v("json", json, "print one JSON object (false: a readable table)");
     v("out", out, "also write the JSON object to this file (empty: none)");
+    v("per_frame", per_frame,
+      "add \"per_frame\" to the JSON object: each scored frame's index, pose error (deg), "
+      "weight MAE and landmark NME, to find the frames that fail");
   }
   bool Check(std::string* why) const {
     if (truth.empty() || track.empty()) {
@@ -135,6 +140,8 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
   double neutral_weight_err = 0.;
   std::vector<double> per_shape(S, 0.);
   std::vector<double> pose_errors;
+  // Each scored frame's index, pose error, weight MAE and landmark NME (per_frame).
+  std::vector<std::array<double, 4>> frame_errors;
   rig::Vertices truth_posed, solved_posed;
   // Frames the tracker had no face to solve (/track/termination 3) are not scored.
   int64_t scored = 0;
@@ -154,14 +161,17 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
     const rig::RigidPose solved = tracked.Pose(f);
     const Eigen::VectorXf ws = tracked.Weights(f);
     Eigen::VectorXf wt = Eigen::VectorXf::Zero(S);
+    double frame_weight_err = 0.;
     for (int s = 0; s < S; ++s) {
       if (truth_col[s] >= 0) wt[s] = tw(f, truth_col[s]);
       const double e = std::abs(wt[s] - ws[s]);
       per_shape[s] += e;
-      weight_err += e / S;
+      frame_weight_err += e / S;
       neutral_weight_err += std::abs(wt[s]) / S;
     }
+    weight_err += frame_weight_err;
     const double pe = RotationAngleDeg(truth_pose, solved);
+    frame_errors.push_back({static_cast<double>(f), pe, frame_weight_err, std::nan("")});
     pose_errors.push_back(pe);
     pose_err += pe;
     translation_err += (truth_pose.translation - solved.translation).norm();
@@ -181,6 +191,7 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
                   .norm();
       }
       nme += lm / L / iod2;
+      frame_errors.back()[3] = lm / L / iod2;
       vertex_rel += (truth_posed - solved_posed).rowwise().norm().mean() / iod3;
     }
   }
@@ -211,7 +222,20 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
   for (int s = 0; s < S; ++s) {
     js << (s ? ", " : "") << "\"" << rig.shapes[s].name << "\": " << JsonNumber(per_shape[s] / n);
   }
-  js << "}}";
+  js << "}";
+  if (o.per_frame) {
+    const char* keys[4] = {"frame", "pose_err_deg", "weights_mae", "landmark_nme"};
+    js << ", \"per_frame\": {";
+    for (int c = 0; c < 4; ++c) {
+      js << (c ? "], " : "") << "\"" << keys[c] << "\": [";
+      for (size_t i = 0; i < frame_errors.size(); ++i) {
+        js << (i ? ", " : "") << (c == 0 ? std::to_string(static_cast<int64_t>(frame_errors[i][0]))
+                                         : JsonNumber(frame_errors[i][c]));
+      }
+    }
+    js << "]}";
+  }
+  js << "}";
   if (o.json) {
     std::cout << js.str() << std::endl;
   } else {

@@ -3,6 +3,11 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <numeric>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -91,6 +96,33 @@ TEST_F(TrackStage, OneAndThreeRanksWriteIdenticalTracksAndEvalReportsMetrics) {
   const size_t at = e.output.find(key);
   ASSERT_NE(at, std::string::npos) << e.output;
   EXPECT_NEAR(std::stod(e.output.substr(at + key.size())), expected, 1e-5 + 1e-4 * expected);
+
+  // Each frame's errors (per_frame), whose means are the summary's.
+  auto p = RunFacecap("eval track --truth " + File("samples.h5") + " --track " + one + " --rig " +
+                      File("rig.h5") + " --json --per-frame");
+  ASSERT_EQ(p.code, 0) << p.output;
+  auto number = [&](const std::string& name) {
+    const size_t k = p.output.find("\"" + name + "\": ");
+    EXPECT_NE(k, std::string::npos) << name << " missing in " << p.output;
+    return k == std::string::npos ? -1.0 : std::stod(p.output.substr(k + name.size() + 4));
+  };
+  auto array = [&](const std::string& name) {
+    std::vector<double> values;
+    const size_t k = p.output.find("\"" + name + "\": [");
+    if (k == std::string::npos) return values;
+    std::istringstream in(p.output.substr(k + name.size() + 5, p.output.find(']', k) - k - name.size() - 5));
+    std::string item;
+    while (std::getline(in, item, ',')) values.push_back(std::stod(item));
+    return values;
+  };
+  EXPECT_EQ(array("frame"), (std::vector<double>{0, 1, 2, 3, 4}));
+  for (const auto& [name, mean] : {std::pair<std::string, std::string>{"pose_err_deg", "pose_err_deg_mean"},
+                                   {"weights_mae", "weights_mae"}, {"landmark_nme", "landmark_nme"}}) {
+    const std::vector<double> values = array(name);
+    ASSERT_EQ(values.size(), 5u) << name << " in " << p.output;
+    const double m = std::accumulate(values.begin(), values.end(), 0.0) / 5;
+    EXPECT_NEAR(m, number(mean), 1e-5 * (1 + std::abs(m))) << name;
+  }
 }
 
 TEST_F(TrackStage, KilledRunContinuesToTheUninterruptedResult) {
