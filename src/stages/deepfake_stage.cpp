@@ -201,8 +201,8 @@ struct DeepfakeInferOptions {
       "with a palette head and decoder A, subtract this multiple of the log of each region's "
       "class weight in the palette terms (the model file's /training/region_weights) from "
       "D_A's log-probabilities before each pixel takes its most likely region; training with "
-      "the weights moved borders into the common regions beside rare ones (0: off; ignored "
-      "for a model without region weights)");
+      "the weights moved borders into the common regions beside rare ones (0: off; a model "
+      "without region weights is translated without it, with a warning)");
     v("averaged", averaged,
       "use the model file's moving average of the weights when it has one (train's "
       "average_decay); false: the weights of the last step");
@@ -869,6 +869,9 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
         }
         model->SetLabelBias(bias);
         corrected = 1;
+      } else if (o.prior_correction != 0 && comm.IsMainRank()) {
+        FC_WARN("deepfake infer: {} has no /training/region_weights (trained without the palette "
+                "terms, or before they were stored); prior_correction is not applied", o.model);
       }
     }
     frames_file = io::H5File::OpenRead(o.frames);
