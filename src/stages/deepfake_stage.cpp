@@ -859,7 +859,12 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
     }
     if (model->options().palette_colors > 0 && o.decoder == "A") {
       model->SetShiftAverage(o.shift_average);
-      if (o.prior_correction != 0 && model_file.Exists("/training/region_weights")) {
+      const bool has_weights = model_file.Exists("/training/region_weights");
+      if (o.prior_correction != 0 && !has_weights && comm.IsMainRank()) {
+        FC_WARN("deepfake infer: {} has no /training/region_weights (trained without the palette "
+                "terms, or before they were stored); prior_correction is not applied", o.model);
+      }
+      if (o.prior_correction != 0 && has_weights) {
         const auto weights =
             model_file.ReadVector<float>("/training/region_weights", model->options().palette_colors);
         std::vector<float> bias(weights.size(), 0.f);
@@ -869,9 +874,6 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
         }
         model->SetLabelBias(bias);
         corrected = 1;
-      } else if (o.prior_correction != 0 && comm.IsMainRank()) {
-        FC_WARN("deepfake infer: {} has no /training/region_weights (trained without the palette "
-                "terms, or before they were stored); prior_correction is not applied", o.model);
       }
     }
     frames_file = io::H5File::OpenRead(o.frames);
