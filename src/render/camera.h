@@ -22,6 +22,23 @@ struct Camera {
   Eigen::Vector3f RayDirection(float u, float v) const;
 };
 
+// The view of a similarity-aligned crop of an image taken with a pinhole camera. A crop
+// q = s R(theta) p + t of the source image (pixel centres at integer coordinates, the OpenCV
+// and dlib convention of ingest's /frames/crop_transform) is itself a pinhole image: that of
+// a camera with focal length s f and a moved principal point, turned about its optical axis.
+// A point X in source camera space is at Rz(roll) X in the crop camera's space, so a head
+// pose solved in the crop has the source pose's pitch and yaw and its roll plus `roll`.
+struct CropView {
+  Camera camera;      // the crop camera, scaled to the image size asked for
+  float roll = 0.f;   // rad, the turn of the crop camera about the optical axis (-theta)
+};
+
+// `crop_transform` is the 2 x 3 matrix [s R | t] from source to crop pixels of a crop
+// crop_size pixels wide; the returned camera is for an image of out_size x out_size pixels
+// showing the same crop. `source` must have square pixels (fx == fy).
+CropView CameraOfCrop(const Camera& source, const Eigen::Matrix<float, 2, 3>& crop_transform,
+                      int crop_size, int out_size);
+
 }  // namespace facecap::render
 
 #endif  // FACECAP_RENDER_CAMERA_H_

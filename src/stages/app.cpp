@@ -38,6 +38,7 @@ int RunApp(int argc, char** argv) {
   RegisterScans(&app, &state);
   RegisterBlendshapes(&app, &state);
   RegisterTrack(&app, &state);
+  RegisterPerson(&app, &state);
   RegisterEval(&app, &state);
   RegisterRun(&app, &state);
 

@@ -278,7 +278,10 @@ std::vector<int64_t> UsableFrames(const io::H5File& f, const std::string& datase
                                   int holdout_every = 0) {
   std::vector<int64_t> usable;
   std::vector<uint8_t> found;
-  if (dataset == "/frames/crop" && f.Exists("/frames/found")) found = f.ReadVector<uint8_t>("/frames/found", n);
+  // Frames where ingest found no face (ingest outputs and synth crops) are not used.
+  if (dataset.rfind("/frames/", 0) == 0 && f.Exists("/frames/found")) {
+    found = f.ReadVector<uint8_t>("/frames/found", n);
+  }
   for (int64_t i = 0; i < n; ++i) {
     if (holdout_every > 0 && i % holdout_every == holdout_every - 1) continue;
     if (found.empty() || found[i]) usable.push_back(i);

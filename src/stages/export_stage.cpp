@@ -10,7 +10,12 @@
 
 #include "io/hdf5.h"
 #include "io/mesh_io.h"
+#include "io/image_io.h"
 #include "io/rig_io.h"
+#include "face/frame_source.h"
+#include "render/contact_sheet.h"
+#include "render/landmarks.h"
+#include "stages/ingested_frames.h"
 #include "render/rasterizer.h"
 #include "rig/arkit.h"
 #include "rig/evaluate.h"
@@ -58,7 +63,7 @@ TrackedAnimation ReadAnimation(const std::string& path, const TrackDatasets& d) 
 struct ExportLiveLinkOptions {
   std::string track = "track.h5";   // tracking output
   std::string out = "take.csv";     // CSV file
-  float fps = 30.f;                 // frame rate of the take
+  float fps = 0.f;                  // frame rate of the take (0: the track's)
   float eye_look_deg = 25.f;        // eye rotation at eyeLook* weight 1
   TrackDatasets datasets;
 
@@ -66,23 +71,35 @@ struct ExportLiveLinkOptions {
   void Visit(V&& v) {
     v("track", track, "tracking output (HDF5) with per-frame weights and pose");
     v("out", out, "Live Link Face CSV file");
-    v("fps", fps, "frame rate of the take (frames per second, for the timecodes)");
+    v("fps", fps, "frame rate of the take (frames per second, for the timecodes); 0: the "
+                  "track's own (its source video's rate and timecodes), else 30");
     v("eye_look_deg", eye_look_deg, "eye rotation in degrees at an eyeLook* weight of 1, for the "
                                     "eye yaw and pitch columns");
     datasets.Visit(v);
   }
   bool Check(std::string* why) const {
-    if (!(fps > 0.f && fps <= 1000.f)) { *why = "fps must be in (0, 1000]"; return false; }
+    if (!(fps >= 0.f && fps <= 1000.f)) { *why = "fps must be in [0, 1000] (0: the track's)"; return false; }
     return true;
   }
 };
+
+// The frame rate of an export: the option, else the track's own, else 30.
+float ExportFps(float option, const std::string& track_path) {
+  if (option > 0.f) return option;
+  io::H5File f = io::H5File::OpenRead(track_path);
+  if (f.HasAttribute("/track", "fps")) {
+    const double fps = f.GetDoubleAttribute("/track", "fps");
+    if (fps > 0. && fps <= 1000.) return static_cast<float>(fps);
+  }
+  return 30.f;
+}
 
 // [export.gltf]
 struct ExportGltfOptions {
   std::string track = "track.h5";  // tracking output
   std::string rig = "rig.h5";      // the rig that was tracked
   std::string out = "take.glb";    // .glb or .gltf
-  float fps = 30.f;
+  float fps = 0.f;                 // 0: the track's frame rate
   TrackDatasets datasets;
 
   template <class V>
@@ -90,11 +107,11 @@ struct ExportGltfOptions {
     v("track", track, "tracking output (HDF5) with per-frame weights");
     v("rig", rig, "the rig that was tracked (HDF5)");
     v("out", out, "glTF file (.glb binary or .gltf text)");
-    v("fps", fps, "frame rate of the morph-target animation");
+    v("fps", fps, "frame rate of the morph-target animation (0: the track's own, else 30)");
     datasets.Visit(v);
   }
   bool Check(std::string* why) const {
-    if (!(fps > 0.f && fps <= 1000.f)) { *why = "fps must be in (0, 1000]"; return false; }
+    if (!(fps >= 0.f && fps <= 1000.f)) { *why = "fps must be in [0, 1000] (0: the track's)"; return false; }
     return true;
   }
 };
@@ -123,8 +140,8 @@ const std::vector<std::string>& LiveLinkShapeOrder() {
   return order;
 }
 
-std::string Timecode(int64_t frame, float fps) {
-  const double seconds = frame / static_cast<double>(fps);
+// HH:MM:SS:FF.mmm of a time in seconds at `fps`, as Live Link Face writes it.
+std::string TimecodeAt(double seconds, float fps) {
   const int64_t whole = static_cast<int64_t>(std::floor(seconds));
   const int frames_in_second = static_cast<int>(std::floor((seconds - whole) * fps + 1e-6));
   std::ostringstream os;
@@ -134,12 +151,22 @@ std::string Timecode(int64_t frame, float fps) {
   return os.str();
 }
 
+std::string Timecode(int64_t frame, float fps) { return TimecodeAt(frame / static_cast<double>(fps), fps); }
+
 void RunExportLiveLink(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
   const auto o = ResolveStageOptions<ExportLiveLinkOptions>(flags, &ctx, &resolved);
   if (!ctx.comm.IsMainRank()) return;
   const TrackedAnimation a = ReadAnimation(o.track, o.datasets);
+  const float fps = ExportFps(o.fps, o.track);
+  // Timecodes of the source video's frames when the track has them (a stride or a time range
+  // of ingest keeps them right), else frame / fps.
+  std::vector<double> seconds;
+  {
+    io::H5File f = io::H5File::OpenRead(o.track);
+    if (f.Exists("/track/timecode")) seconds = f.ReadVector<double>("/track/timecode", a.weights.rows());
+  }
   std::vector<int> column_of;  // value column -> shape index in the track, -1 when absent
   std::vector<std::string> missing;
   for (const std::string& name : LiveLinkShapeOrder()) {
@@ -174,7 +201,8 @@ void RunExportLiveLink(const StageFlags& flags, AppState* state) {
            "RightEyePitch,RightEyeRoll\n";
     csv << std::setprecision(6);
     for (int64_t f = 0; f < a.weights.rows(); ++f) {
-      csv << Timecode(f, o.fps) << ",61";
+      csv << (seconds.empty() || seconds[f] < 0. ? Timecode(f, fps) : TimecodeAt(seconds[f], fps))
+          << ",61";
       for (int index : column_of) csv << "," << (index < 0 ? 0.f : a.weights(f, index));
       // Head rotation as Live Link Face writes it: yaw, pitch, roll in radians.
       csv << "," << a.pose(f, 1) << "," << a.pose(f, 0) << "," << a.pose(f, 2);
@@ -213,9 +241,10 @@ void RunExportGltf(const StageFlags& flags, AppState* state) {
   if (matched == 0) {
     throw FileIOError(o.track + ": no tracked shape name matches a shape of " + o.rig);
   }
-  io::ExportRigToGltf(rig, o.out, &animation, o.fps);
+  const float fps = ExportFps(o.fps, o.track);
+  io::ExportRigToGltf(rig, o.out, &animation, fps);
   FC_INFO("export gltf: {} morph targets ({} animated), {} frames at {} fps -> {}",
-          rig.NumShapes(), matched, animation.size(), o.fps, o.out);
+          rig.NumShapes(), matched, animation.size(), fps, o.out);
 }
 
 // [export.overlay]
@@ -223,12 +252,14 @@ struct ExportOverlayOptions {
   std::string track = "track.h5";    // tracking output (pose, translation, scale, weights)
   std::string rig = "rig.h5";        // the rig that was tracked
   std::string frames = "clip.h5";    // the frames that were tracked
-  std::string frames_dataset = "";   // image dataset ("": /frames/image, then /frames/crop)
+  std::string frames_dataset = "";   // image dataset ("": see Visit)
   std::string out = "overlay.mp4";   // mp4 file
-  float fps = 30.f;                  // frame rate of the video
+  float fps = 0.f;                   // frame rate of the video (0: the track's)
   float opacity = 0.45f;             // opacity of the segmentation colours over the frame
-  int scale = 2;                     // magnification of the video (nearest neighbour)
+  int scale = 0;                     // magnification (0: 2 below 256 pixels, else 1)
   int count = 0;                     // frames to draw from the first (0: all tracked frames)
+  std::string sheet = "";            // contact sheet PNG of evenly spaced frames ("": none)
+  int sheet_count = 12;              // frames on the sheet
 
   template <class V>
   void Visit(V&& v) {
@@ -236,18 +267,23 @@ struct ExportOverlayOptions {
     v("rig", rig, "the rig that was tracked (HDF5)");
     v("frames", frames, "file of the frames that were tracked (a wild clip or an ingest file)");
     v("frames_dataset", frames_dataset,
-      "image dataset of the frames (empty: /frames/image, then /frames/crop)");
+      "image dataset of the frames (empty: the source video's own frames for a track of an "
+      "ingest output's crops, else /frames/image, then /frames/crop)");
     v("out", out, "mp4 file: each frame with the tracked rig drawn over it");
-    v("fps", fps, "frame rate of the video");
+    v("fps", fps, "frame rate of the video (0: the track's own, else 30)");
     v("opacity", opacity, "opacity of the rig's segmentation colours over the frame, in [0, 1]");
-    v("scale", scale, "magnification of the video (nearest neighbour), 1 to 8");
+    v("scale", scale, "magnification of the video (nearest neighbour), 1 to 8 (0: 2 for frames "
+                      "under 256 pixels, else 1)");
     v("count", count, "frames to draw from the first (0: all tracked frames)");
+    v("sheet", sheet, "also a contact sheet PNG of sheet_count evenly spaced frames (empty: none)");
+    v("sheet_count", sheet_count, "frames on the contact sheet");
   }
   bool Check(std::string* why) const {
-    if (!(fps > 0.f && fps <= 1000.f)) { *why = "fps must be in (0, 1000]"; return false; }
+    if (!(fps >= 0.f && fps <= 1000.f)) { *why = "fps must be in [0, 1000] (0: the track's)"; return false; }
     if (!(opacity >= 0.f && opacity <= 1.f)) { *why = "opacity must be in [0, 1]"; return false; }
-    if (scale < 1 || scale > 8) { *why = "scale must be in [1, 8]"; return false; }
+    if (scale < 0 || scale > 8) { *why = "scale must be in [0, 8]"; return false; }
     if (count < 0) { *why = "count must be >= 0"; return false; }
+    if (sheet_count < 1 || sheet_count > 400) { *why = "sheet_count must be in [1, 400]"; return false; }
     return true;
   }
 };
@@ -279,6 +315,77 @@ Image8 DrawOverlay(const Image8& frame, const render::GBuffer& g, const rig::Rig
   return out;
 }
 
+// Reads the frames a track was made of: the source video's frames (or images) at the
+// track's source indices, or an image dataset of the frames file.
+class OverlayFrames {
+ public:
+  OverlayFrames(const std::string& path, const std::string& dataset, const TrackedRig& track) {
+    file_ = io::H5File::OpenRead(path);
+    dataset_ = dataset;
+    const bool ingested = file_.Exists("/frames/crop_transform") && file_.Exists("/sources/files");
+    if (dataset_.empty() && track.InSourceCamera() && ingested) {
+      files_ = file_.ReadStrings("/sources/files");
+      file_id_ = file_.ReadVector<int32_t>("/frames/source_file_id");
+      if (files_.size() == 1 && file_.GetDoubleAttribute("/sources/files", "fps") > 0.) {
+        video_ = face::FrameSource::OpenVideo(files_[0], kMaxPixels);
+      }
+      return;
+    }
+    if (dataset_.empty()) {
+      for (const char* name : {"/frames/image", "/frames/crop"}) {
+        if (file_.Exists(name)) {
+          dataset_ = name;
+          break;
+        }
+      }
+      if (dataset_.empty()) {
+        throw FileIOError(path + ": neither /frames/image nor /frames/crop; name the dataset "
+                          "with frames_dataset");
+      }
+    }
+    const io::Shape shape = file_.CheckShape(dataset_, {-1, -1, -1, 3});
+    frames_ = shape[0];
+    buffer_ = Image8(static_cast<int>(shape[2]), static_cast<int>(shape[1]), 3);
+    // A track of crops drawn over the crops: each frame in its crop's camera.
+    if (track.InSourceCamera() && ingested && dataset_ == "/frames/crop") {
+      ingested_ = std::make_unique<IngestedFrames>(IngestedFrames::Read(path));
+    }
+  }
+  bool FromSource() const { return !files_.empty(); }
+  int64_t NumFrames() const { return FromSource() ? static_cast<int64_t>(file_id_.size()) : frames_; }
+  // Frame `f` (the k-th tracked frame, with its source index); empty when unreadable.
+  Image8 Read(int64_t f, int64_t source_index) {
+    if (!FromSource()) {
+      file_.ReadFrames<uint8_t>(dataset_, f, 1, buffer_.data.data());
+      return buffer_;
+    }
+    const face::DecodedFrame d =
+        video_ ? video_->Read(source_index) : face::ReadImageFile(files_.at(file_id_[f]), kMaxPixels);
+    return d.ok ? d.image : Image8();
+  }
+  // The camera frame `f` is drawn with, and the pose of the track moved into it.
+  render::Camera Camera(const TrackedRig& track, int64_t f, const Image8& image,
+                        rig::RigidPose* pose) const {
+    if (ingested_) {
+      const render::CropView view = ingested_->CropCamera(f, image.width);
+      *pose = PoseInCrop(*pose, view);
+      return view.camera;
+    }
+    return track.CameraForWidth(image.width, image.height);
+  }
+
+ private:
+  static constexpr int64_t kMaxPixels = 40000000;
+  io::H5File file_;
+  std::string dataset_;
+  int64_t frames_ = 0;
+  Image8 buffer_;
+  std::vector<std::string> files_;
+  std::vector<int32_t> file_id_;
+  std::unique_ptr<face::FrameSource> video_;
+  std::unique_ptr<IngestedFrames> ingested_;
+};
+
 void RunExportOverlay(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -289,27 +396,10 @@ void RunExportOverlay(const StageFlags& flags, AppState* state) {
   const rig::Rig rig = io::ReadRigFile(o.rig);
   const TrackedRig track(o.track, rig);
   const int64_t tracked = track.NumFrames();
-
-  io::H5File frames_file = io::H5File::OpenRead(o.frames);
-  std::string dataset = o.frames_dataset;
-  if (dataset.empty()) {
-    for (const char* name : {"/frames/image", "/frames/crop"}) {
-      if (frames_file.Exists(name)) {
-        dataset = name;
-        break;
-      }
-    }
-    if (dataset.empty()) {
-      throw FileIOError(o.frames + ": neither /frames/image nor /frames/crop; name the dataset "
-                        "with frames_dataset");
-    }
-  }
-  const io::Shape shape = frames_file.CheckShape(dataset, {-1, -1, -1, 3});
-  const int64_t count = std::min<int64_t>(o.count > 0 ? o.count : tracked, std::min(tracked, shape[0]));
+  OverlayFrames source(o.frames, o.frames_dataset, track);
+  const int64_t count =
+      std::min<int64_t>(o.count > 0 ? o.count : tracked, std::min(tracked, source.NumFrames()));
   if (count < 1) throw FileIOError(o.track + ": no tracked frame to draw");
-  const int H = static_cast<int>(shape[1]), W = static_cast<int>(shape[2]);
-  // The tracking camera, scaled to the frames (tracking may have run on smaller targets).
-  const render::Camera camera = track.CameraForWidth(W, H);
 
   const rig::RigEvaluator evaluator(rig);
   rig::Vertices posed;
@@ -318,22 +408,128 @@ void RunExportOverlay(const StageFlags& flags, AppState* state) {
   raster.barycentrics = false;
   std::vector<Image8> video;
   video.reserve(count);
-  Image8 frame(W, H, 3);
+  int factor = o.scale;
+  int width = 0, height = 0;
   for (int64_t f = 0; f < count; ++f) {
-    frames_file.ReadFrames<uint8_t>(dataset, f, 1, frame.data.data());
-    if (!track.Solved(f)) {  // no face to solve there: the frame without the rig
-      video.push_back(synth::UpscaleNearest(frame, o.scale));
-      continue;
+    Image8 frame = source.Read(f, track.InSourceCamera() ? track.SourceIndex(f) : f);
+    if (frame.empty()) {  // unreadable: a black frame of the video's size
+      frame = Image8(std::max(width, 1), std::max(height, 1), 3);
     }
-    evaluator.EvaluatePosed(track.Pose(f), track.Weights(f), &posed);
-    render::Rasterize(posed, rig.triangles, camera, &g, raster);
-    video.push_back(synth::UpscaleNearest(DrawOverlay(frame, g, rig, o.opacity), o.scale));
+    if (width == 0) {
+      width = frame.width;
+      height = frame.height;
+      if (factor == 0) factor = std::max(width, height) < 256 ? 2 : 1;
+    }
+    if (frame.width != width || frame.height != height) {
+      throw FileIOError(o.frames + ": frame " + std::to_string(f) + " is " +
+                        std::to_string(frame.width) + "x" + std::to_string(frame.height) +
+                        ", the first was " + std::to_string(width) + "x" + std::to_string(height) +
+                        ": an mp4 needs frames of one size");
+    }
+    if (track.Solved(f)) {  // else no face to solve there: the frame without the rig
+      rig::RigidPose pose = track.Pose(f);
+      const render::Camera camera = source.Camera(track, f, frame, &pose);
+      evaluator.EvaluatePosed(pose, track.Weights(f), &posed);
+      render::Rasterize(posed, rig.triangles, camera, &g, raster);
+      frame = DrawOverlay(frame, g, rig, o.opacity);
+    }
+    video.push_back(synth::UpscaleNearest(frame, factor));
   }
   std::filesystem::path parent = std::filesystem::path(o.out).parent_path();
   if (!parent.empty()) std::filesystem::create_directories(parent);
-  const std::string codec = synth::WriteVideo(o.out, video, o.fps);
-  FC_INFO("export overlay: {} frames ({}x{}, {}) -> {}", count, W * o.scale, H * o.scale, codec,
-          o.out);
+  const float fps = ExportFps(o.fps, o.track);
+  const std::string codec = synth::WriteVideo(o.out, video, fps);
+  FC_INFO("export overlay: {} frames ({}x{}, {}, {} fps) -> {}", count, width * factor,
+          height * factor, codec, fps, o.out);
+  if (!o.sheet.empty()) {
+    std::vector<Image8> tiles;
+    const int n = static_cast<int>(std::min<int64_t>(o.sheet_count, count));
+    for (int k = 0; k < n; ++k) tiles.push_back(video[(count - 1) * k / std::max(1, n - 1)]);
+    io::WriteImage(o.sheet, render::ContactSheet(tiles));
+    FC_INFO("export overlay: contact sheet of {} frames -> {}", n, o.sheet);
+  }
+}
+
+// [export.landmarks]
+struct ExportLandmarksOptions {
+  std::string track = "track.h5";     // tracking of an ingest output's crops
+  std::string rig = "rig.h5";         // the rig that was tracked
+  std::string frames = "frames.h5";   // the ingest output
+  std::string out = "landmarks.csv";  // CSV file
+
+  template <class V>
+  void Visit(V&& v) {
+    v("track", track, "tracking output (HDF5) of an ingest output's crops (track --frames)");
+    v("rig", rig, "the rig that was tracked (HDF5)");
+    v("frames", frames, "the ingest output (frames.h5) the track was made of");
+    v("out", out, "CSV file: source_index, timecode, x_0..x_67, y_0..y_67, visible_0..visible_67 "
+                  "in source video pixels (pixel centres at integers, as dlib and OpenCV)");
+  }
+  bool Check(std::string* why) const {
+    if (out.empty()) { *why = "out must name a file"; return false; }
+    return true;
+  }
+};
+
+void RunExportLandmarks(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<ExportLandmarksOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  std::string why;
+  if (!o.Check(&why)) throw InvalidInputError("export landmarks: " + why);
+  const rig::Rig rig = io::ReadRigFile(o.rig);
+  if (rig.landmarks.size() != 68) throw FileIOError(o.rig + ": the rig has no 68 landmarks");
+  const TrackedRig track(o.track, rig);
+  const IngestedFrames frames = IngestedFrames::Read(o.frames);
+  if (!track.InSourceCamera()) {
+    throw FileIOError(o.track + ": not a track of an ingest output's crops (made without "
+                      "track --frames), so its camera is not the source video's");
+  }
+  if (track.NumFrames() != frames.NumFrames()) {
+    throw FileIOError(o.track + " has " + std::to_string(track.NumFrames()) + " frames, " +
+                      o.frames + " has " + std::to_string(frames.NumFrames()));
+  }
+  const rig::RigEvaluator evaluator(rig);
+  rig::Vertices posed;
+  render::GBuffer g;
+  render::RasterizeOptions raster;
+  raster.barycentrics = false;
+  std::vector<render::Landmark2D> projected;
+  const std::string tmp = o.out + ".partial";
+  int64_t written = 0;
+  {
+    std::ofstream csv(tmp);
+    if (!csv) throw OutputError(o.out + ": cannot write");
+    csv << "source_index,timecode";
+    for (const char* axis : {"x", "y", "visible"}) {
+      for (int l = 0; l < 68; ++l) csv << "," << axis << "_" << l;
+    }
+    csv << "\n" << std::fixed;
+    for (int64_t f = 0; f < frames.NumFrames(); ++f) {
+      csv << frames.SourceIndex(f) << "," << std::setprecision(4) << frames.Timecode(f);
+      if (!frames.Found(f) || !track.Solved(f)) {
+        for (int k = 0; k < 3 * 68; ++k) csv << ",";
+        csv << "\n";
+        continue;
+      }
+      const render::Camera camera = frames.SourceCamera(f);
+      evaluator.EvaluatePosed(track.Pose(f), track.Weights(f), &posed);
+      render::Rasterize(posed, rig.triangles, camera, &g, raster);
+      render::ProjectLandmarks(posed, rig.triangles, rig.landmarks, camera, g, &projected);
+      csv << std::setprecision(3);
+      // Camera coordinates put pixel centres at i + 0.5; the CSV at i, as ingest's landmarks.
+      for (int axis = 0; axis < 2; ++axis) {
+        for (int l = 0; l < 68; ++l) csv << "," << projected[l].position[axis] - 0.5f;
+      }
+      for (int l = 0; l < 68; ++l) csv << "," << (projected[l].visible ? 1 : 0);
+      csv << "\n";
+      ++written;
+    }
+    if (!csv) throw OutputError(o.out + ": write failed");
+  }
+  std::filesystem::rename(tmp, o.out);
+  FC_INFO("export landmarks: {} frames ({} with landmarks) -> {}", frames.NumFrames(), written, o.out);
 }
 
 }  // namespace
@@ -353,9 +549,16 @@ void RegisterExport(CLI::App* app, AppState* state) {
       RunExportGltf);
   AddStage<ExportOverlayOptions>(
       exp, state, "overlay", "export.overlay", "export overlay",
-      "mp4 of the tracked rig drawn over the frames it was tracked on: segmentation colours "
-      "blended in, region borders and silhouette in white",
+      "mp4 of the tracked rig drawn over the frames it was tracked on (the source video's own "
+      "frames for a track of footage): segmentation colours blended in, region borders and "
+      "silhouette in white; optionally a contact sheet PNG",
       RunExportOverlay);
+  AddStage<ExportLandmarksOptions>(
+      exp, state, "landmarks", "export.landmarks", "export landmarks",
+      "CSV of the tracked rig's 68 landmarks (iBUG order) in the source video's pixels, one row "
+      "per ingested frame (frames without a face: empty coordinates), so that other tools can "
+      "score the tracking",
+      RunExportLandmarks);
 }
 
 }  // namespace facecap::stages

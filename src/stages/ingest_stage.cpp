@@ -39,6 +39,7 @@ bool IngestOptions::Check(std::string* why) const {
   if (!(start_s >= 0.0)) { *why = "start_s must be >= 0"; return false; }
   if (end_s >= 0.0 && end_s <= start_s) { *why = "end_s must be after start_s (or < 0)"; return false; }
   if (max_frames < 0) { *why = "max_frames must be >= 0"; return false; }
+  if (!(fov_deg >= 5.0 && fov_deg <= 150.0)) { *why = "fov_deg must be in [5, 150]"; return false; }
   if (min_face_size < 0) { *why = "min_face_size must be >= 0"; return false; }
   if (detect_small_max_side != 0 && detect_small_max_side < 80) {
     *why = "detect_small_max_side must be 0 (no small-face search) or >= 80";
@@ -215,6 +216,11 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
       f.SetAttribute("/sources/files", "num_frames", source.NumFrames());
       f.SetAttribute("/", "crop_padding", o.crop_padding);
       f.SetAttribute("/", "crop_raise", o.crop_raise);
+      f.WriteVector<double>("/camera/fov_deg", {o.fov_deg});
+      f.SetAttribute("/camera/fov_deg", "meaning",
+                     std::string("vertical field of view of the source camera (degrees), as "
+                                 "assumed by ingest's fov_deg; principal point at the image "
+                                 "centre, square pixels"));
     }
     io::DoneMask detected(&f, n, "/progress/detected");
     pending_detect = detected.Pending();

@@ -48,6 +48,7 @@ struct IngestOptions {
   int crop_size = 128;                // aligned crop width and height
   double crop_padding = 0.25;         // margin around the mean face in the crop
   double crop_raise = 0.0;            // the face moved up by this fraction of the crop
+  double fov_deg = 40.0;              // vertical field of view of the source camera (assumed)
   float track_min_iou = 0.25f;        // box overlap that continues the subject
   int track_max_gap = 10;             // frames without the subject before a new one is taken
   int64_t max_image_pixels = 40000000;  // larger images are processed scaled down
@@ -84,6 +85,9 @@ struct IngestOptions {
     v("crop_padding", crop_padding, "margin around the mean face in the crop, in face sizes");
     v("crop_raise", crop_raise,
       "the face moved up by this fraction of the crop height (negative: down)");
+    v("fov_deg", fov_deg,
+      "vertical field of view of the camera that filmed the source, in degrees (a webcam or "
+      "phone front camera: 40-50); later stages model the footage as a pinhole camera with it");
     v("track_min_iou", track_min_iou, "box overlap (IoU) with the subject's last box that "
                                       "continues the subject");
     v("track_max_gap", track_max_gap, "frames without the subject after which the largest face "

@@ -96,10 +96,14 @@ CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
 
 void RegisterVersion(CLI::App* app, AppState* state);
 void RegisterRig(CLI::App* app, AppState* state);
+// `rig calibrate`, under the `rig` subcommand made by RegisterRig.
+void RegisterRigCalibrate(CLI::App* rig, AppState* state);
 void RegisterRender(CLI::App* app, AppState* state);
 void RegisterSynth(CLI::App* app, AppState* state);
 // `synth clip` and `synth sheet`, under the `synth` subcommand made by RegisterSynth.
 void RegisterSynthClip(CLI::App* synth, AppState* state);
+// `synth crops`, under the `synth` subcommand.
+void RegisterSynthCrops(CLI::App* synth, AppState* state);
 void RegisterIngest(CLI::App* app, AppState* state);
 void RegisterCurate(CLI::App* app, AppState* state);
 void RegisterDeepfake(CLI::App* app, AppState* state);
@@ -107,6 +111,8 @@ void RegisterExport(CLI::App* app, AppState* state);
 void RegisterScans(CLI::App* app, AppState* state);
 void RegisterBlendshapes(CLI::App* app, AppState* state);
 void RegisterTrack(CLI::App* app, AppState* state);
+// `person fit` under a `person` subcommand.
+void RegisterPerson(CLI::App* app, AppState* state);
 // `eval track` (and other metrics) under an `eval` subcommand, made when absent.
 void RegisterEval(CLI::App* app, AppState* state);
 void RegisterRun(CLI::App* app, AppState* state);

@@ -160,6 +160,7 @@ void RegisterRig(CLI::App* app, AppState* state) {
       RunRigImport);
   AddStage<RigExportOptions>(rig, state, "export", "rig.export", "rig export",
                              "Export a rig to OBJ files and/or glTF", RunRigExport);
+  RegisterRigCalibrate(rig, state);
 }
 
 }  // namespace facecap::stages

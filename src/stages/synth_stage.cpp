@@ -1,6 +1,8 @@
 // facecap synth samples: random rig samples rendered as segmentation images (paper 000
 // Sec. 7), spread across ranks, resumable.
+#include "face/align.h"
 #include "io/rig_io.h"
+#include "render/camera.h"
 #include "render/framing.h"
 #include "render/gbuffer_images.h"
 #include "render/landmarks.h"
@@ -8,6 +10,7 @@
 #include "rig/evaluate.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
+#include "stages/ingested_frames.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
 #include "synth/samples.h"
@@ -24,6 +27,13 @@ struct SynthSamplesOptions {
   std::string out = "samples.h5";    // output file
   int batch = 32;                    // samples per rank per round (a checkpoint per round)
   int threads = 0;                   // OpenMP threads per rank (0: cores / ranks on the node)
+  // Framing: "centered" (the head framed on the optical axis, fill of the image) or "crop"
+  // (each sample framed as ingest crops footage: the head filmed by a camera of fov_deg at
+  // fill, then the similarity-aligned crop of its 68 landmarks with crop_padding and
+  // crop_raise, rendered directly through the crop's camera).
+  std::string framing = "centered";
+  double crop_padding = 0.4;
+  double crop_raise = 0.04;
   synth::SampleOptions sample;       // the sampling and rendering options
 
   template <class V>
@@ -32,11 +42,24 @@ struct SynthSamplesOptions {
     v("out", out, "output file (HDF5)");
     v("batch", batch, "samples per rank per round; each round is a checkpoint");
     v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
+    v("framing", framing,
+      "centered: the head on the optical axis filling `fill` of the image; crop: framed as "
+      "ingest crops footage (the aligned crop of the 68 landmarks, crop_padding, crop_raise), "
+      "so that the samples look like the crops a deepfake translates; each sample's camera in "
+      "/samples/camera");
+    v("crop_padding", crop_padding, "framing = crop: ingest's crop_padding");
+    v("crop_raise", crop_raise, "framing = crop: ingest's crop_raise");
     sample.Visit(v);
   }
   bool Check(std::string* why) const {
     if (batch <= 0) { *why = "batch must be positive"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    if (framing != "centered" && framing != "crop") {
+      *why = "framing must be centered or crop, not " + framing;
+      return false;
+    }
+    face::CropOptions crop{sample.size, crop_padding, crop_raise};
+    if (!crop.Check(why)) return false;
     return sample.Check(why);
   }
 };
@@ -76,6 +99,8 @@ void RunSynthSamples(const StageFlags& flags, AppState* state) {
   const render::Camera camera = synth::SampleCamera(so);
   const float distance = render::FramingDistance(rig, camera, so.fill);
   const rig::RigEvaluator evaluator(rig);
+  const bool crop = o.framing == "crop";
+  const auto crop_template = face::CropTemplate({so.size, o.crop_padding, o.crop_raise});
 
   // Rank 0 opens the output and knows what is pending.
   ResumableOutput output;
@@ -98,6 +123,10 @@ void RunSynthSamples(const StageFlags& flags, AppState* state) {
     f.CreateFrames<float>("/samples/landmarks", {kNumLandmarks, 2}, so.count, 256, 4);
     f.SetAttribute("/samples/landmarks", "units", std::string("pixels (x right, y down)"));
     f.CreateFrames<uint8_t>("/samples/landmark_visible", {kNumLandmarks}, so.count, 1024, 4);
+    f.CreateFrames<float>("/samples/camera", {4}, so.count, 1024, 4);
+    f.SetAttribute("/samples/camera", "columns",
+                   std::string("fx, fy, cx, cy (pixels) of the camera each sample is rendered "
+                               "with (" + o.framing + " framing)"));
     if (!output.resumed) {
       std::vector<std::string> names;
       for (const auto& s : rig.shapes) names.push_back(s.name);
@@ -136,17 +165,33 @@ void RunSynthSamples(const StageFlags& flags, AppState* state) {
   auto compute = [&](int64_t index, int thread) {
     SampleRenderer& r = renderers[thread];
     const synth::SampleParams p = synth::DrawSample(sparsity, so, S, index);
-    const rig::RigidPose pose = render::FramedPose(rig, distance, p.pitch, p.yaw);
+    rig::RigidPose pose = render::FramedPose(rig, distance, p.pitch, p.yaw);
+    render::Camera view_camera = camera;
+    if (crop) {
+      // The crop of the landmarks as ingest aligns it, and the head seen through its camera.
+      evaluator.EvaluatePosed(pose, p.weights, &r.posed);
+      face::Landmarks lm;
+      for (int l = 0; l < kNumLandmarks; ++l) {
+        lm.row(l) = (camera.Project(r.posed.row(rig.landmarks[l]).transpose()).head<2>() -
+                     Eigen::Vector2f(0.5f, 0.5f)).transpose();
+      }
+      const std::vector<int>& idx = face::CropAlignmentLandmarks();
+      const face::Similarity2 m =
+          face::FitSimilarity(face::SelectRows(lm, idx), face::SelectRows(crop_template, idx));
+      const render::CropView view = render::CameraOfCrop(camera, m.Matrix().cast<float>(), H, H);
+      view_camera = view.camera;
+      pose = PoseInCrop(pose, view);
+    }
     evaluator.EvaluatePosed(pose, p.weights, &r.posed);
-    render::Rasterize(r.posed, rig.triangles, camera, &r.gbuffer);
+    render::Rasterize(r.posed, rig.triangles, view_camera, &r.gbuffer);
     render::RenderSegmentation(r.gbuffer, rig.triangle_region, rig.regions,
                                Eigen::Vector3f::Zero(), &r.segmentation);
-    render::ProjectLandmarks(r.posed, rig.triangles, rig.landmarks, camera, r.gbuffer,
+    render::ProjectLandmarks(r.posed, rig.triangles, rig.landmarks, view_camera, r.gbuffer,
                              &r.landmarks);
     ByteWriter w;
     w.PutVector(r.segmentation.data);
     w.PutArray(p.weights.data(), S);
-    const float angles[3] = {p.pitch, p.yaw, 0.f};
+    const float angles[3] = {pose.pitch, pose.yaw, pose.roll};
     w.PutArray(angles, 3);
     std::vector<float> xy;
     std::vector<uint8_t> visible;
@@ -157,6 +202,8 @@ void RunSynthSamples(const StageFlags& flags, AppState* state) {
     }
     w.PutVector(xy);
     w.PutVector(visible);
+    const float intrinsics[4] = {view_camera.fx, view_camera.fy, view_camera.cx, view_camera.cy};
+    w.PutArray(intrinsics, 4);
     return std::move(w.bytes());
   };
   auto commit = [&](const std::vector<int64_t>& frames,
@@ -169,7 +216,7 @@ void RunSynthSamples(const StageFlags& flags, AppState* state) {
       while (end < frames.size() && frames[end] == frames[end - 1] + 1) ++end;
       const int64_t n = static_cast<int64_t>(end - k);
       std::vector<uint8_t> seg, vis;
-      std::vector<float> weights, angles, xy;
+      std::vector<float> weights, angles, xy, cameras;
       for (size_t j = k; j < end; ++j) {
         ByteReader r(results[j]);
         auto s = r.GetVector<uint8_t>();
@@ -182,12 +229,15 @@ void RunSynthSamples(const StageFlags& flags, AppState* state) {
         xy.insert(xy.end(), l.begin(), l.end());
         auto v = r.GetVector<uint8_t>();
         vis.insert(vis.end(), v.begin(), v.end());
+        auto c = r.GetVector<float>();
+        cameras.insert(cameras.end(), c.begin(), c.end());
       }
       f.WriteFrames<uint8_t>("/samples/segmentation", frames[k], n, seg.data());
       f.WriteFrames<float>("/samples/weights", frames[k], n, weights.data());
       f.WriteFrames<float>("/samples/pose", frames[k], n, angles.data());
       f.WriteFrames<float>("/samples/landmarks", frames[k], n, xy.data());
       f.WriteFrames<uint8_t>("/samples/landmark_visible", frames[k], n, vis.data());
+      f.WriteFrames<float>("/samples/camera", frames[k], n, cameras.data());
       k = end;
     }
     io::DoneMask mask(&f, so.count);
@@ -212,6 +262,7 @@ void RegisterSynth(CLI::App* app, AppState* state) {
       "identical for any rank count, resumable",
       RunSynthSamples);
   RegisterSynthClip(synth, state);
+  RegisterSynthCrops(synth, state);
 }
 
 }  // namespace facecap::stages

@@ -8,6 +8,7 @@
 #include "io/hdf5.h"
 #include "io/rig_io.h"
 #include "render/framing.h"
+#include "stages/ingested_frames.h"
 #include "rig/arkit.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
@@ -31,9 +32,12 @@ struct TrackOptions {
   std::string out = "track.h5";           // output file
   // Frame dataset of target images [N, H, W, 3] u8; when absent, /samples/segmentation.
   std::string targets_dataset = "/frames/segmentation";
-  // Optional per-frame 2 x 3 similarity [N, 2, 3] f32 from rig-frame pixels to target pixels
-  // (paper Fig. 18: crops of real footage); empty: targets are already in the rig's frame.
-  std::string alignment_dataset = "";
+  // Ingest output whose crops the targets translate (real footage, or a synthetic clip's
+  // video): each frame is tracked in its crop's camera (the source camera assumed by ingest,
+  // seen through the crop transform), the detected landmarks initialise each segment and
+  // feed the landmark term, and the track is written in the source camera, with the source
+  // frame indices, timecodes and frame rate. Empty: the targets file's own camera.
+  std::string frames = "";
   // Initialisation: "neutral" (frontal neutral, frames independent), "landmarks" (the pose
   // fitted to the file's 2D landmarks, neutral expression) or "previous" (each frame starts
   // from the previous frame's solution; frames are solved in segments of segment_frames).
@@ -54,8 +58,10 @@ struct TrackOptions {
     v("out", out, "output file (HDF5)");
     v("targets_dataset", targets_dataset,
       "frame dataset of target images [N,H,W,3] u8 (falls back to /samples/segmentation)");
-    v("alignment_dataset", alignment_dataset,
-      "per-frame 2x3 similarity from rig-frame to target pixels (empty: none)");
+    v("frames", frames,
+      "ingest output (frames.h5) whose crops the targets translate: frames are tracked in "
+      "their crop's camera, with the detected landmarks, and written in the source camera "
+      "(empty: the targets' own camera)");
     v("init", init, "initialisation: neutral | landmarks | previous");
     v("segment_frames", segment_frames, "frames per sequential segment when init = previous");
     v("texture", texture, "texture of model and targets: segmentation | skin");
@@ -100,7 +106,7 @@ std::string FirstExisting(const io::H5File& f, std::initializer_list<std::string
   return "";
 }
 
-TargetsInfo InspectTargets(const std::string& path, const std::string& dataset) {
+TargetsInfo InspectTargets(const std::string& path, const std::string& dataset, bool need_camera) {
   io::H5File f = io::H5File::OpenRead(path);
   TargetsInfo info;
   info.images = FirstExisting(f, {dataset, "/samples/segmentation"});
@@ -111,7 +117,13 @@ TargetsInfo InspectTargets(const std::string& path, const std::string& dataset) 
   info.frames = shape[0];
   info.height = static_cast<int>(shape[1]);
   info.width = static_cast<int>(shape[2]);
-  if (!f.Exists("/camera/intrinsics")) throw FileIOError(path + ": no /camera/intrinsics");
+  info.camera.width = info.width;
+  info.camera.height = info.height;
+  if (!f.Exists("/camera/intrinsics")) {
+    if (!need_camera) return info;
+    throw FileIOError(path + ": no /camera/intrinsics (name the ingest output with frames when "
+                      "the targets translate its crops)");
+  }
   const std::vector<double> k = f.ReadVector<double>("/camera/intrinsics", 4);
   info.camera.width = info.width;
   info.camera.height = info.height;
@@ -133,6 +145,13 @@ TargetsInfo InspectTargets(const std::string& path, const std::string& dataset) 
   return info;
 }
 
+// A frame's target, its camera, and how a pose maps between the target's camera and the
+// camera the track is written in (they differ for crops of footage).
+struct FrameTarget {
+  track::TrackTarget target;
+  render::CropView view;      // roll 0 and the targets' camera when there is no crop
+};
+
 void RunTrack(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -141,23 +160,43 @@ void RunTrack(const StageFlags& flags, AppState* state) {
 
   rig::Rig rig;
   TargetsInfo info;
+  IngestedFrames ingested;
+  const bool crops = !o.frames.empty();
   dist::CoordinateExceptions(comm, [&] {
     std::string why;
     if (!o.Check(&why)) throw InvalidInputError("track: " + why);
     rig = io::ReadRigFile(o.rig);
-    info = InspectTargets(o.targets, o.targets_dataset);
-    if ((o.init == "landmarks" || o.tracker.objective == "landmarks") && info.landmarks.empty()) {
-      throw FileIOError(o.targets + ": init/objective landmarks needs a landmarks dataset beside " +
-                        info.images);
+    info = InspectTargets(o.targets, o.targets_dataset, !crops);
+    if (crops) {
+      ingested = IngestedFrames::Read(o.frames);
+      if (ingested.NumFrames() != info.frames) {
+        throw FileIOError(o.frames + " has " + std::to_string(ingested.NumFrames()) + " frames, " +
+                          o.targets + " has " + std::to_string(info.frames) +
+                          ": the targets must translate these frames");
+      }
+      if (rig.landmarks.size() != 68) {
+        throw FileIOError(o.rig + ": tracking crops of footage needs the rig's 68 landmarks");
+      }
+      info.found = ingested.found();
+    } else if ((o.init == "landmarks" || o.tracker.objective == "landmarks" ||
+                o.tracker.landmark_weight > 0.f) &&
+               info.landmarks.empty()) {
+      throw FileIOError(o.targets + ": init, objective or landmark_weight with landmarks needs a "
+                        "landmarks dataset beside " + info.images + " (or name the ingest output "
+                        "with frames)");
     }
   });
   const int64_t frames = o.count > 0 ? std::min<int64_t>(o.count, info.frames) : info.frames;
   const int S = rig.NumShapes();
-  const float distance = info.distance_cm > 0.f
-                             ? info.distance_cm
-                             : render::FramingDistance(rig, info.camera, 0.7f);
   const int64_t unit_frames = o.init == "previous" ? o.segment_frames : 1;
   const int64_t units = (frames + unit_frames - 1) / unit_frames;
+  // The camera the track is written in: the source camera of footage, else the targets'.
+  int64_t first_found = 0;
+  while (crops && first_found + 1 < frames && !ingested.Found(first_found)) ++first_found;
+  const render::Camera out_camera = crops ? ingested.SourceCamera(first_found) : info.camera;
+  const float distance = info.distance_cm > 0.f
+                             ? info.distance_cm
+                             : render::FramingDistance(rig, out_camera, crops ? 0.56f : 0.7f);
 
   const std::vector<Eigen::Vector3f> seg_colors = track::RigRegionColors(rig);
   const std::vector<Eigen::Vector3f> model_colors =
@@ -199,7 +238,7 @@ void RunTrack(const StageFlags& flags, AppState* state) {
       std::vector<std::string> names;
       for (const auto& s : rig.shapes) names.push_back(s.name);
       f.WriteStrings("/track/shape_names", names);
-      const render::Camera& c = info.camera;
+      const render::Camera& c = out_camera;
       f.WriteVector<double>("/camera/intrinsics", {c.fx, c.fy, c.cx, c.cy});
       f.SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
       f.SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(distance));
@@ -207,6 +246,31 @@ void RunTrack(const StageFlags& flags, AppState* state) {
       f.SetAttribute("/camera/intrinsics", "height", static_cast<double>(c.height));
       f.SetAttribute("/track", "targets", o.targets);
       f.SetAttribute("/track", "targets_dataset", info.images);
+      f.SetAttribute("/track", "rig", o.rig);
+      if (crops) {
+        f.SetAttribute("/camera/intrinsics", "fov_deg", ingested.fov_deg());
+        f.SetAttribute("/camera/intrinsics", "meaning",
+                       std::string("the source video's camera as assumed by ingest: poses are in "
+                                   "its space, landmarks project to source pixels"));
+        f.SetAttribute("/track", "frames", o.frames);
+        std::vector<int64_t> index(frames);
+        std::vector<double> timecode(frames);
+        for (int64_t k = 0; k < frames; ++k) {
+          index[k] = ingested.SourceIndex(k);
+          timecode[k] = ingested.Timecode(k);
+        }
+        f.WriteVector("/track/source_index", index);
+        f.SetAttribute("/track/source_index", "meaning",
+                       std::string("frame index in the source video (or image index)"));
+        f.WriteVector("/track/timecode", timecode);
+        f.SetAttribute("/track/timecode", "units", std::string("seconds from the start of the video"));
+        if (ingested.fps() > 0.) f.SetAttribute("/track", "fps", ingested.fps());
+      } else if (io::H5File::IsHdf5(o.targets)) {
+        io::H5File t = io::H5File::OpenRead(o.targets);
+        if (t.HasAttribute("/camera/intrinsics", "fps")) {
+          f.SetAttribute("/track", "fps", t.GetDoubleAttribute("/camera/intrinsics", "fps"));
+        }
+      }
     }
     io::DoneMask mask(&f, units);
     pending = mask.Pending();
@@ -227,16 +291,17 @@ void RunTrack(const StageFlags& flags, AppState* state) {
   std::mutex read_mutex;
   const int W = info.width, H = info.height;
   auto read_target = [&](int64_t frame) {
-    track::TrackTarget t;
+    FrameTarget ft;
+    track::TrackTarget& t = ft.target;
     t.camera = info.camera;
+    ft.view.camera = info.camera;
     Image8 image(W, H, 3);
     Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor> lm;
     std::vector<uint8_t> visible;
-    std::vector<float> alignment;
     {
       std::lock_guard<std::mutex> lock(read_mutex);
       targets_file.ReadFrames<uint8_t>(info.images, frame, 1, image.data.data());
-      if (!info.landmarks.empty()) {
+      if (!crops && !info.landmarks.empty()) {
         const io::Shape ls = targets_file.DatasetShape(info.landmarks);
         lm.resize(ls[1], 2);
         targets_file.ReadFrames<float>(info.landmarks, frame, 1, lm.data());
@@ -245,29 +310,33 @@ void RunTrack(const StageFlags& flags, AppState* state) {
           targets_file.ReadFrames<uint8_t>(info.visible, frame, 1, visible.data());
         }
       }
-      if (!o.alignment_dataset.empty()) {
-        alignment.resize(6);
-        targets_file.ReadFrames<float>(o.alignment_dataset, frame, 1, alignment.data());
-      }
+    }
+    if (crops) {
+      if (W != H) throw FileIOError(o.targets + ": translations of crops must be square");
+      ft.view = ingested.CropCamera(frame, W);
+      t.camera = ft.view.camera;
+      lm = ingested.CropLandmarks(frame, W);
     }
     t.image = track::ToFloatImage(image);
-    if (!alignment.empty()) {
-      // Bring the target into the rig's image frame (paper Fig. 18).
-      Eigen::Matrix<float, 2, 3> a;
-      a << alignment[0], alignment[1], alignment[2], alignment[3], alignment[4], alignment[5];
-      t.image = track::WarpToRigFrame(t.image, a, W, H, 0.f);
-    }
     if (o.texture == "skin") {
       t.image = track::RecolorSegmentation(t.image, seg_colors, model_colors,
                                            o.tracker.soft.background_color);
     }
     t.landmarks = lm;
     t.landmark_visible = visible;
-    return t;
+    return ft;
   };
 
-  const rig::RigidPose neutral_pose = render::FramedPose(rig, distance, 0.f, 0.f);
   const Eigen::VectorXf neutral_weights = Eigen::VectorXf::Zero(S);
+  // The neutral frontal head, framed in the middle of the target's image.
+  auto neutral_pose_in = [&](const render::Camera& camera) {
+    const float d = crops ? render::FramingDistance(rig, camera, 0.56f) : distance;
+    rig::RigidPose p = render::FramedPose(rig, d, 0.f, 0.f);
+    p.translation += camera.RayDirection(0.5f * camera.width, 0.5f * camera.height) * d -
+                     Eigen::Vector3f(0.f, 0.f, -d);
+    return p;
+  };
+  const rig::RigidPose neutral_pose = neutral_pose_in(crops ? out_camera : info.camera);
   const int threads = ThreadsPerRank(o.threads);
   FrameLoopOptions loop;
   loop.what = "track";
@@ -278,8 +347,10 @@ void RunTrack(const StageFlags& flags, AppState* state) {
     ByteWriter w;
     const int64_t first = unit * unit_frames;
     const int64_t last = std::min(frames, first + unit_frames);
+    // The solution so far, in the output camera; none before the segment's first face.
     rig::RigidPose pose = neutral_pose;
     Eigen::VectorXf weights = neutral_weights;
+    bool have_previous = false;
     auto put = [&](const rig::RigidPose& p, const Eigen::VectorXf& x,
                    const track::FrameSummary& summary, int32_t termination) {
       const float angles[3] = {p.pitch, p.yaw, p.roll};
@@ -308,17 +379,18 @@ void RunTrack(const StageFlags& flags, AppState* state) {
         put(pose, weights, none, kNoTarget);
         continue;
       }
-      const track::TrackTarget target = read_target(frame);
-      if (o.init == "landmarks") {
-        pose = tracker.PoseFromLandmarks(target, neutral_pose, neutral_weights);
+      const FrameTarget ft = read_target(frame);
+      rig::RigidPose start = PoseInCrop(pose, ft.view);
+      const bool from_landmarks = o.init == "landmarks" || (crops && !have_previous);
+      if (o.init != "previous" || !have_previous) {
+        start = crops ? neutral_pose_in(ft.target.camera) : neutral_pose;
         weights = neutral_weights;
-      } else if (o.init == "neutral") {
-        pose = neutral_pose;
-        weights = neutral_weights;
-      }  // "previous": keep the last solution (the segment starts from the neutral)
-      const track::TrackResult r = tracker.Solve(target, pose, weights);
-      pose = r.pose;
+      }
+      if (from_landmarks) start = tracker.PoseFromLandmarks(ft.target, start, neutral_weights);
+      const track::TrackResult r = tracker.Solve(ft.target, start, weights);
+      pose = PoseInSource(r.pose, ft.view);
       weights = r.weights;
+      have_previous = true;
       put(pose, weights, r.summary, static_cast<int32_t>(r.summary.termination));
     }
     return std::move(w.bytes());

@@ -17,6 +17,11 @@ TrackedRig::TrackedRig(const std::string& path, const rig::Rig& rig) : num_rig_s
   for (size_t t = 0; t < names.size(); ++t) shape_of_[t] = rig.ShapeIndex(names[t]);
   intrinsics_ = track.ReadVector<double>("/camera/intrinsics", 4);
   has_width_ = track.HasAttribute("/camera/intrinsics", "width");
+  if (track.HasAttribute("/track", "fps")) fps_ = track.GetDoubleAttribute("/track", "fps");
+  if (track.Exists("/track/source_index")) {
+    source_index_ = track.ReadVector<int64_t>("/track/source_index", n);
+    timecode_ = track.ReadVector<double>("/track/timecode", n);
+  }
   width_ = has_width_ ? track.GetDoubleAttribute("/camera/intrinsics", "width") : 2.0 * intrinsics_[2];
 }
 

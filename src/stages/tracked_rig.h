@@ -32,6 +32,13 @@ class TrackedRig {
   // The tracking camera scaled to images `width` pixels wide (tracking may have run on smaller
   // targets); without a recorded width the principal point is taken as central.
   render::Camera CameraForWidth(int width, int height) const;
+  // The frame rate the track records (its source video's or the synthetic clip's; 0: none).
+  double fps() const { return fps_; }
+  // Whether the track was made of crops of footage (track --frames): its camera is then the
+  // source video's, and each frame knows its source frame index and timecode.
+  bool InSourceCamera() const { return !source_index_.empty(); }
+  int64_t SourceIndex(int64_t frame) const { return source_index_[frame]; }
+  double Timecode(int64_t frame) const { return timecode_[frame]; }
 
  private:
   int num_rig_shapes_ = 0;
@@ -42,6 +49,9 @@ class TrackedRig {
   std::vector<int32_t> termination_;
   std::vector<double> intrinsics_;
   double width_ = 0.;
+  double fps_ = 0.;
+  std::vector<int64_t> source_index_;
+  std::vector<double> timecode_;
   bool has_width_ = false;
 };
 

@@ -31,8 +31,12 @@ bool TrackerOptions::Check(std::string* why) const {
     *why = "iterations per block must be >= 0";
     return false;
   }
-  if (!(weight_prior >= 0.f)) {
-    *why = "weight_prior must be >= 0";
+  if (!(weight_prior >= 0.f && weight_prior < 1e6f)) {
+    *why = "weight_prior must be in [0, 1e6)";
+    return false;
+  }
+  if (!(landmark_weight >= 0.f && landmark_weight < 1e6f)) {
+    *why = "landmark_weight must be in [0, 1e6)";
     return false;
   }
   if (!(function_tolerance > 0.)) {
@@ -219,8 +223,20 @@ struct Tracker::Impl {
 
   double Objective(bool landmarks, const Eigen::VectorXf& full, const std::vector<int>* columns,
                    Eigen::MatrixXd* normal, Eigen::VectorXd* gradient) {
-    return landmarks ? Landmarks(full, columns, normal, gradient)
-                     : Segmentation(full, columns, normal, gradient);
+    if (landmarks) return Landmarks(full, columns, normal, gradient);
+    double sum = Segmentation(full, columns, normal, gradient);
+    const float lambda = tracker.options_.landmark_weight;
+    if (lambda > 0.f && target.landmarks.rows() > 0) {
+      Eigen::MatrixXd lm_normal;
+      Eigen::VectorXd lm_gradient;
+      sum += lambda * Landmarks(full, columns, normal ? &lm_normal : nullptr,
+                                normal ? &lm_gradient : nullptr);
+      if (normal) {
+        *normal += lambda * lm_normal;
+        *gradient += lambda * lm_gradient;
+      }
+    }
+    return sum;
   }
 };
 
@@ -402,10 +418,33 @@ Tracker::Tracker(const rig::Rig& rig, std::vector<Eigen::Vector3f> region_colors
 
 Tracker::~Tracker() = default;
 
+void Tracker::HoldShapesFixed(const std::vector<int>& shapes) {
+  auto drop = [&](std::vector<int>* list) {
+    list->erase(std::remove_if(list->begin(), list->end(),
+                               [&](int s) {
+                                 return std::find(shapes.begin(), shapes.end(), s) != shapes.end();
+                               }),
+                list->end());
+  };
+  drop(&jaw_shapes_);
+  drop(&other_shapes_);
+}
+
 double Tracker::SegmentationCost(const TrackTarget& target, const rig::RigidPose& pose,
                                  const Eigen::VectorXf& weights) const {
   Impl impl(*this, target);
   return 0.5 * impl.Segmentation(rig::PackRigParams(pose, weights), nullptr, nullptr, nullptr);
+}
+
+double Tracker::NormalEquations(const TrackTarget& target, const Eigen::VectorXf& params,
+                                const std::vector<int>& columns, Eigen::MatrixXd* normal,
+                                Eigen::VectorXd* gradient) const {
+  if (params.size() != rig::NumRigParams(rig_)) {
+    throw InvalidInputError("track: NormalEquations needs " + std::to_string(rig::NumRigParams(rig_)) +
+                            " parameters, got " + std::to_string(params.size()));
+  }
+  Impl impl(*this, target);
+  return impl.Objective(options_.objective == "landmarks", params, &columns, normal, gradient);
 }
 
 rig::RigidPose Tracker::PoseFromLandmarks(const TrackTarget& target,
@@ -528,31 +567,6 @@ TrackTarget Downsample(const TrackTarget& target) {
   }
   out.landmarks = target.landmarks / 2.f;
   out.landmark_visible = target.landmark_visible;
-  return out;
-}
-
-ImageF WarpToRigFrame(const ImageF& image, const Eigen::Matrix<float, 2, 3>& rig_to_target,
-                      int width, int height, float fill) {
-  ImageF out(width, height, image.channels, fill);
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      // Pixel centres map to pixel centres.
-      const Eigen::Vector2f src =
-          rig_to_target.leftCols<2>() * Eigen::Vector2f(x + 0.5f, y + 0.5f) + rig_to_target.col(2);
-      const float fx = src.x() - 0.5f, fy = src.y() - 0.5f;
-      const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
-      const float ax = fx - x0, ay = fy - y0;
-      if (x0 < -1 || y0 < -1 || x0 >= image.width || y0 >= image.height) continue;
-      for (int k = 0; k < image.channels; ++k) {
-        auto at = [&](int xx, int yy) {
-          if (xx < 0 || yy < 0 || xx >= image.width || yy >= image.height) return fill;
-          return image.at(xx, yy, k);
-        };
-        out.at(x, y, k) = (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x0 + 1, y0)) +
-                          ay * ((1 - ax) * at(x0, y0 + 1) + ax * at(x0 + 1, y0 + 1));
-      }
-    }
-  }
   return out;
 }
 

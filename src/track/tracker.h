@@ -64,6 +64,10 @@ struct TrackerOptions {
   // Shapes that a segmentation image barely shows (tongue, cheek puff, dimples) are otherwise
   // free to take any value that trades a few border pixels; 0 turns it off.
   float weight_prior = 3.f;
+  // lambda_L of a landmark term lambda_L sum_l |proj(X_l) - l|^2 added to the segmentation
+  // cost, over the target's visible landmarks (pixels of the target image; it scales with
+  // the pixel count like the prior); 0: off, and ignored for a target without landmarks.
+  float landmark_weight = 0.f;
   // Residual colours: false compares the soft render F_seg with the target (consistent cost
   // and derivative); true compares the hard render (exactly zero at the truth for a clean,
   // aliased target) and uses the soft render's derivative as its Gauss-Newton Jacobian.
@@ -90,6 +94,9 @@ struct TrackerOptions {
     v("solve_roll", solve_roll, "solve the roll angle of the rigid pose");
     v("solve_scale", solve_scale, "solve the uniform scale of the rigid pose");
     v("weight_prior", weight_prior, "L2 prior lambda |w|^2 towards the neutral (0: off)");
+    v("landmark_weight", landmark_weight,
+      "weight of a 2D landmark term added to the segmentation cost, per squared pixel of "
+      "landmark error (0: off; needs target landmarks)");
     v("hard_residual", hard_residual,
       "residual of the hard render with the soft render's Jacobian (for aliased targets)");
     v("function_tolerance", function_tolerance, "relative cost decrease that stops a block");
@@ -149,6 +156,18 @@ class Tracker {
   double SegmentationCost(const TrackTarget& target, const rig::RigidPose& pose,
                           const Eigen::VectorXf& weights) const;
 
+  // The objective the solve minimizes (no prior), |r|^2, at `params` (the solver layout of
+  // rig/evaluate.h), with its Gauss-Newton normal equations J^T J (*normal) and J^T r
+  // (*gradient) over the parameter `columns` (any pose or shape columns). For fits built on
+  // the tracker, such as the person's identity over many frames.
+  double NormalEquations(const TrackTarget& target, const Eigen::VectorXf& params,
+                         const std::vector<int>& columns, Eigen::MatrixXd* normal,
+                         Eigen::VectorXd* gradient) const;
+
+  // Holds these shapes at their initial weights in every solve (shapes the caller solves
+  // otherwise, such as identity modes appended to a rig). Call before solving.
+  void HoldShapesFixed(const std::vector<int>& shapes);
+
   const rig::RigEvaluator& evaluator() const { return evaluator_; }
   const SoftSegmentationRenderer& renderer() const { return renderer_; }
   const TrackerOptions& options() const { return options_; }
@@ -166,13 +185,6 @@ class Tracker {
 
 // The target at half resolution: 2 x 2 box average, camera intrinsics halved.
 TrackTarget Downsample(const TrackTarget& target);
-
-// Brings a target image into the rig's image frame (paper Fig. 18): out(x) = in(A x + b),
-// with `rig_to_target` the 2 x 3 similarity [A | b] from rig-frame pixel coordinates to
-// target pixel coordinates (identity for synthetic targets rendered with the rig's camera),
-// bilinear, `fill` outside. Output width x height x channels of `image`.
-ImageF WarpToRigFrame(const ImageF& image, const Eigen::Matrix<float, 2, 3>& rig_to_target,
-                      int width, int height, float fill = 0.f);
 
 // RGB8 -> float RGB in [0, 1].
 ImageF ToFloatImage(const Image8& image);

@@ -1,0 +1,96 @@
+#include "stages/ingested_frames.h"
+
+#include <cmath>
+
+#include "io/hdf5.h"
+#include "util/errors.h"
+
+namespace facecap::stages {
+
+IngestedFrames IngestedFrames::Read(const std::string& path) {
+  io::H5File f = io::H5File::OpenRead(path);
+  IngestedFrames r;
+  r.path_ = path;
+  if (!f.Exists("/frames/crop_transform") || !f.Exists("/frames/found")) {
+    throw FileIOError(path + ": not an ingest output (no /frames/crop_transform and /frames/found)");
+  }
+  if (!f.Exists("/camera/fov_deg")) {
+    throw FileIOError(path + ": no /camera/fov_deg (written by an older facecap ingest): rerun "
+                      "ingest to record the camera");
+  }
+  const io::Shape crop = f.CheckShape("/frames/crop", {-1, -1, -1, 3});
+  const int64_t n = crop[0];
+  r.crop_size_ = static_cast<int>(crop[2]);
+  f.CheckShape("/frames/found", {n});
+  f.CheckShape("/frames/crop_transform", {n, 2, 3});
+  f.CheckShape("/frames/landmarks", {n, 68, 2});
+  f.CheckShape("/frames/image_size", {n, 2});
+  f.CheckShape("/frames/source_index", {n});
+  f.CheckShape("/frames/timecode", {n});
+  f.CheckShape("/camera/fov_deg", {1});
+  r.found_ = f.ReadVector<uint8_t>("/frames/found", n);
+  r.source_index_ = f.ReadVector<int64_t>("/frames/source_index", n);
+  r.timecode_ = f.ReadVector<double>("/frames/timecode", n);
+  r.image_size_ = f.Read<int32_t>("/frames/image_size", {n, 2});
+  r.crop_transform_ = f.Read<float>("/frames/crop_transform", {n, 2, 3});
+  r.landmarks_ = f.Read<float>("/frames/landmarks", {n, 68, 2});
+  r.fov_deg_ = f.ReadVector<double>("/camera/fov_deg", 1)[0];
+  if (!(r.fov_deg_ > 1. && r.fov_deg_ < 170.)) {
+    throw FileIOError(path + ": /camera/fov_deg " + std::to_string(r.fov_deg_) + " is not in (1, 170)");
+  }
+  if (f.HasAttribute("/sources/files", "fps")) r.fps_ = f.GetDoubleAttribute("/sources/files", "fps");
+  if (!std::isfinite(r.fps_) || r.fps_ < 0.) r.fps_ = 0.;
+  for (int64_t k = 0; k < n; ++k) {
+    if (r.found_[k] && (r.image_size_[2 * k] <= 0 || r.image_size_[2 * k + 1] <= 0)) {
+      throw FileIOError(path + ": frame " + std::to_string(k) + " has a face but no image size");
+    }
+  }
+  return r;
+}
+
+render::Camera IngestedFrames::SourceCamera(int64_t frame) const {
+  return render::Camera::FromFov(image_size_[2 * frame], image_size_[2 * frame + 1],
+                                 static_cast<float>(fov_deg_));
+}
+
+render::CropView IngestedFrames::CropCamera(int64_t frame, int out_size) const {
+  const Eigen::Map<const Eigen::Matrix<float, 2, 3, Eigen::RowMajor>> m(&crop_transform_[6 * frame]);
+  return render::CameraOfCrop(SourceCamera(frame), m, crop_size_, out_size);
+}
+
+Eigen::Matrix<float, 68, 2, Eigen::RowMajor> IngestedFrames::SourceLandmarks(int64_t frame) const {
+  return Eigen::Map<const Eigen::Matrix<float, 68, 2, Eigen::RowMajor>>(&landmarks_[136 * frame]);
+}
+
+Eigen::Matrix<float, 68, 2, Eigen::RowMajor> IngestedFrames::CropLandmarks(int64_t frame,
+                                                                           int out_size) const {
+  const Eigen::Map<const Eigen::Matrix<float, 2, 3, Eigen::RowMajor>> m(&crop_transform_[6 * frame]);
+  const float k = static_cast<float>(out_size) / static_cast<float>(crop_size_);
+  const Eigen::Matrix<float, 68, 2, Eigen::RowMajor> p = SourceLandmarks(frame);
+  Eigen::Matrix<float, 68, 2, Eigen::RowMajor> q;
+  for (int l = 0; l < 68; ++l) {
+    const Eigen::Vector2f c = m.leftCols<2>() * p.row(l).transpose() + m.col(2);
+    q.row(l) = (k * (c + Eigen::Vector2f(0.5f, 0.5f))).transpose();
+  }
+  return q;
+}
+
+namespace {
+Eigen::Matrix3f Turn(float roll) { return rig::EulerToMatrix(Eigen::Vector3f(0.f, 0.f, roll)); }
+}  // namespace
+
+rig::RigidPose PoseInCrop(const rig::RigidPose& source_pose, const render::CropView& view) {
+  rig::RigidPose p = source_pose;
+  p.roll += view.roll;
+  p.translation = Turn(view.roll) * source_pose.translation;
+  return p;
+}
+
+rig::RigidPose PoseInSource(const rig::RigidPose& crop_pose, const render::CropView& view) {
+  rig::RigidPose p = crop_pose;
+  p.roll -= view.roll;
+  p.translation = Turn(-view.roll) * crop_pose.translation;
+  return p;
+}
+
+}  // namespace facecap::stages

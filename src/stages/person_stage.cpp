@@ -1,0 +1,438 @@
+// facecap person fit: the person's own rig from their footage (paper 000 Sec. 5.1): the
+// identity modes of the generic rig fitted, jointly with every chosen frame's pose
+// and expression, to the 68 landmarks ingest detected, then refined by inverse rendering of
+// the deepfake's segmentation translations (track/person_fit.h); the rig's shapes moved onto
+// the person by deformation transfer (assets/person_rig.h).
+//
+// Frames: every frame with a face gets a quick pose from its landmarks (spread across ranks);
+// `frames` of them are chosen for pose variety (farthest-point sampling over yaw and pitch,
+// starting from the most frontal). Each round solves the chosen frames across ranks and takes
+// one identity step from their contributions summed in frame order, so the result is the same
+// for any number of ranks. The output's .partial file holds the identity and every frame's
+// state after each round: a stopped or killed fit continues from its last round when rerun.
+#include <algorithm>
+#include <cmath>
+#include <csignal>
+#include <cstdlib>
+#include <mutex>
+
+#include "assets/person_rig.h"
+#include "io/hdf5.h"
+#include "io/rig_io.h"
+#include "render/framing.h"
+#include "stages/cli.h"
+#include "stages/frame_loop.h"
+#include "stages/ingested_frames.h"
+#include "stages/registry.h"
+#include "stages/resumable.h"
+#include "track/person_fit.h"
+#include "util/bytes.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/signals.h"
+
+namespace facecap::stages {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+// [person.fit]
+struct PersonFitStageOptions {
+  std::string rig = "rig.h5";            // the generic rig with identity modes
+  std::string frames = "frames.h5";      // ingest output: landmarks, crops, camera
+  std::string translations = "";        // deepfake infer output of those frames ("": none)
+  std::string translations_dataset = "/frames/translated";
+  std::string out = "person.h5";         // the person's rig
+  int count = 48;                        // frames chosen for pose variety
+  int size = 64;                         // target size without translations (pixels)
+  int threads = 0;                       // OpenMP threads per rank (0: cores / node ranks)
+  track::PersonFitOptions fit;
+
+  template <class V>
+  void Visit(V&& v) {
+    v("rig", rig, "generic rig (HDF5) whose identity modes span the people (rig demo)");
+    v("frames", frames, "ingest output (frames.h5): detected landmarks, crop transforms, camera");
+    v("translations", translations,
+      "deepfake infer output of the same frames: the segmentation translations the "
+      "refinement renders against (empty: landmarks only, no refinement)");
+    v("translations_dataset", translations_dataset, "image dataset of the translations");
+    v("out", out, "the person's rig (HDF5, /rig; every --rig option takes it)");
+    v("count", count, "frames chosen for pose variety (farthest-point sampling over yaw, pitch)");
+    v("size", size, "size of the crop camera without translations (pixels)");
+    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
+    v("landmark_rounds", fit.landmark_rounds, "rounds of the fit to the landmarks");
+    v("refine_rounds", fit.refine_rounds,
+      "rounds of the refinement by inverse rendering of the translations (with translations)");
+    v("identity_prior", fit.identity_prior,
+      "weight of the prior alpha ~ N(0, 1) on the identity, in squared landmark pixels of a "
+      "128-pixel crop");
+    v("robust_px", fit.robust_px,
+      "Cauchy scale of a frame's RMS landmark residual (pixels of a 128-pixel crop): frames "
+      "whose landmarks fit badly count less");
+    v("refine_landmark_weight", fit.refine_tracker.landmark_weight,
+      "landmark term beside the segmentation cost in the refinement (per squared pixel)");
+    v("refine_weight_prior", fit.refine_tracker.weight_prior,
+      "expression prior of the refinement's per-frame solves");
+  }
+  bool Check(std::string* why) const {
+    if (count < 2 || count > 100000) { *why = "count must be in [2, 100000]"; return false; }
+    if (size < 16 || size > 1024) { *why = "size must be in [16, 1024]"; return false; }
+    if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    if (out.empty()) { *why = "out must name a file"; return false; }
+    return fit.Check(why);
+  }
+};
+
+// Farthest-point sampling of `count` of the points (yaw, pitch in degrees), starting from the
+// one nearest to frontal; ties go to the lower index. Returns ascending indices.
+std::vector<int64_t> ChooseForPoseVariety(const std::vector<Eigen::Vector2d>& points, int count) {
+  const int64_t n = static_cast<int64_t>(points.size());
+  std::vector<int64_t> chosen;
+  if (n == 0) return chosen;
+  std::vector<double> distance(n, std::numeric_limits<double>::infinity());
+  int64_t next = 0;
+  for (int64_t i = 1; i < n; ++i) {
+    if (points[i].norm() < points[next].norm()) next = i;
+  }
+  while (static_cast<int64_t>(chosen.size()) < std::min<int64_t>(count, n)) {
+    chosen.push_back(next);
+    for (int64_t i = 0; i < n; ++i) distance[i] = std::min(distance[i], (points[i] - points[next]).norm());
+    next = 0;
+    for (int64_t i = 1; i < n; ++i) {
+      if (distance[i] > distance[next]) next = i;
+    }
+    if (distance[next] <= 0.) break;  // every remaining point repeats a chosen one
+  }
+  std::sort(chosen.begin(), chosen.end());
+  return chosen;
+}
+
+void PutPose(ByteWriter* w, const rig::RigidPose& p) {
+  const float v[8] = {p.pitch, p.yaw, p.roll, p.translation.x(), p.translation.y(),
+                      p.translation.z(), p.scale, 0.f};
+  w->PutArray(v, 8);
+}
+
+rig::RigidPose GetPose(ByteReader* r) {
+  const std::vector<float> v = r->GetVector<float>();
+  rig::RigidPose p;
+  p.pitch = v[0];
+  p.yaw = v[1];
+  p.roll = v[2];
+  p.translation = Eigen::Vector3f(v[3], v[4], v[5]);
+  p.scale = v[6];
+  return p;
+}
+
+// Fault injection for the restart tests: FACECAP_FAULT_AFTER_ROUNDS=r makes rank 0 send itself
+// SIGTERM (or SIGKILL with FACECAP_FAULT_SIGNAL=KILL) once round r is checkpointed. Unset in
+// normal use.
+void MaybeInjectFault(const dist::Comm& comm, int64_t rounds_done) {
+  static const char* after = std::getenv("FACECAP_FAULT_AFTER_ROUNDS");
+  if (!after || !comm.IsMainRank() || rounds_done != std::atoll(after)) return;
+  const char* kind = std::getenv("FACECAP_FAULT_SIGNAL");
+  std::raise(kind && std::string(kind) == "KILL" ? SIGKILL : SIGTERM);
+}
+
+void RunPersonFit(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<PersonFitStageOptions>(flags, &ctx, &resolved);
+  const dist::Comm& comm = ctx.comm;
+
+  rig::Rig generic;
+  IngestedFrames frames;
+  int size = o.size;
+  dist::CoordinateExceptions(comm, [&] {
+    std::string why;
+    if (!o.Check(&why)) throw InvalidInputError("person fit: " + why);
+    generic = io::ReadRigFile(o.rig);
+    if (generic.identity_modes.empty()) {
+      throw FileIOError(o.rig + ": the rig has no identity modes to fit a person with");
+    }
+    if (generic.landmarks.size() != 68) throw FileIOError(o.rig + ": the rig has no 68 landmarks");
+    frames = IngestedFrames::Read(o.frames);
+    if (!o.translations.empty()) {
+      io::H5File t = io::H5File::OpenRead(o.translations);
+      const io::Shape shape = t.CheckShape(o.translations_dataset, {-1, -1, -1, 3});
+      if (shape[0] != frames.NumFrames()) {
+        throw FileIOError(o.translations + " has " + std::to_string(shape[0]) + " frames, " +
+                          o.frames + " has " + std::to_string(frames.NumFrames()));
+      }
+      if (shape[1] != shape[2]) throw FileIOError(o.translations + ": translations must be square");
+      size = static_cast<int>(shape[1]);
+    }
+  });
+  const bool refine = !o.translations.empty() && o.fit.refine_rounds > 0;
+  const track::PersonFitter fitter(generic, o.fit);
+  const int K = fitter.NumIdentityParams();
+  const int S = generic.NumShapes();
+  const int threads = ThreadsPerRank(o.threads);
+  const int rounds = o.fit.landmark_rounds + (refine ? o.fit.refine_rounds : 0);
+
+  std::vector<int64_t> with_face;
+  for (int64_t f = 0; f < frames.NumFrames(); ++f) {
+    if (frames.Found(f)) with_face.push_back(f);
+  }
+  if (with_face.size() < 2) {
+    throw FileIOError(o.frames + ": " + std::to_string(with_face.size()) +
+                      " frames with a face; person fit needs at least 2");
+  }
+
+  // The targets of a frame: its crop camera and landmarks, and its translation if any.
+  io::H5File translations_file;
+  if (refine) {
+    dist::CoordinateExceptions(comm, [&] { translations_file = io::H5File::OpenRead(o.translations); });
+  }
+  std::mutex read_mutex;
+  auto make_target = [&](int64_t f, bool with_image, render::CropView* view) {
+    track::TrackTarget t;
+    *view = frames.CropCamera(f, size);
+    t.camera = view->camera;
+    t.landmarks = frames.CropLandmarks(f, size);
+    if (with_image) {
+      Image8 image(size, size, 3);
+      std::lock_guard<std::mutex> lock(read_mutex);
+      translations_file.ReadFrames<uint8_t>(o.translations_dataset, f, 1, image.data.data());
+      t.image = track::ToFloatImage(image);
+    }
+    return t;
+  };
+
+  // Output (rank 0): new, continued, or up to date.
+  ResumableOutput output;
+  int up_to_date = 0;
+  int64_t rounds_done = 0;
+  std::vector<int64_t> chosen;
+  Eigen::VectorXd identity = Eigen::VectorXd::Zero(K), landmarks_only = Eigen::VectorXd::Zero(K);
+  std::vector<float> state_pose, state_weights;  // per chosen frame: 8 and S floats
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "person fit", resolved));
+    if (output.up_to_date) {
+      up_to_date = 1;
+      return;
+    }
+    io::H5File& f = output.file;
+    if (output.resumed && f.Exists("/progress/rounds")) {
+      rounds_done = f.ReadVector<int64_t>("/progress/rounds", 1)[0];
+      chosen = f.ReadVector<int64_t>("/person/frames/index");
+      const std::vector<double> id = f.ReadVector<double>("/person/identity", K);
+      identity = Eigen::Map<const Eigen::VectorXd>(id.data(), K);
+      const std::vector<double> lo = f.ReadVector<double>("/person/landmarks_only_identity", K);
+      landmarks_only = Eigen::Map<const Eigen::VectorXd>(lo.data(), K);
+      state_pose = f.Read<float>("/person/frames/pose", {static_cast<int64_t>(chosen.size()), 8});
+      state_weights = f.Read<float>("/person/frames/weights", {static_cast<int64_t>(chosen.size()), S});
+      FC_INFO("person fit: continuing {}: {} of {} rounds done", io::H5File::PartialPath(o.out),
+              rounds_done, rounds);
+    }
+  });
+  comm.Broadcast(&up_to_date, sizeof(up_to_date));
+  if (up_to_date) {
+    if (comm.IsMainRank()) FC_INFO("person fit: {} is up to date", o.out);
+    return;
+  }
+  comm.Broadcast(&rounds_done, sizeof(rounds_done));
+  comm.Broadcast(&chosen);
+  comm.Broadcast(&state_pose);
+  comm.Broadcast(&state_weights);
+  comm.Broadcast(identity.data(), K * sizeof(double));
+  comm.Broadcast(landmarks_only.data(), K * sizeof(double));
+
+  FrameLoopOptions loop;
+  loop.threads = threads;
+  loop.batch = 4;
+  if (chosen.empty()) {
+    // Every frame with a face: its pose from the landmarks, with the generic neutral.
+    const track::Tracker posing(generic, track::RigRegionColors(generic), o.fit.landmark_tracker);
+    std::vector<Eigen::Vector2d> angles(with_face.size());
+    std::vector<rig::RigidPose> poses(with_face.size());
+    loop.what = "person fit: poses";
+    const Eigen::VectorXf neutral = Eigen::VectorXf::Zero(S);
+    auto compute = [&](int64_t k, int) {
+      render::CropView view;
+      const track::TrackTarget t = make_target(with_face[k], false, &view);
+      const float d = render::FramingDistance(generic, t.camera, 0.56f);
+      rig::RigidPose start = render::FramedPose(generic, d, 0.f, 0.f);
+      start.translation += t.camera.RayDirection(0.5f * size, 0.5f * size) * d - Eigen::Vector3f(0.f, 0.f, -d);
+      const rig::RigidPose p = posing.PoseFromLandmarks(t, start, neutral);
+      ByteWriter w;
+      PutPose(&w, p);
+      return std::move(w.bytes());
+    };
+    std::vector<std::vector<uint8_t>> results(with_face.size());
+    auto commit = [&](const std::vector<int64_t>& done, const std::vector<std::vector<uint8_t>>& r) {
+      for (size_t i = 0; i < done.size(); ++i) results[done[i]] = r[i];
+    };
+    std::vector<int64_t> all(with_face.size());
+    for (size_t k = 0; k < all.size(); ++k) all[k] = static_cast<int64_t>(k);
+    RunFrameLoop(comm, all, static_cast<int64_t>(all.size()), loop, compute, commit);
+    dist::CoordinateExceptions(comm, [&] {
+      if (!comm.IsMainRank()) return;
+      for (size_t k = 0; k < results.size(); ++k) {
+        ByteReader r(results[k]);
+        poses[k] = GetPose(&r);
+        angles[k] = Eigen::Vector2d(poses[k].yaw * kRadToDeg, poses[k].pitch * kRadToDeg);
+      }
+      for (int64_t k : ChooseForPoseVariety(angles, o.count)) {
+        chosen.push_back(with_face[k]);
+        ByteWriter w;
+        PutPose(&w, poses[k]);
+        ByteReader r(w.bytes());
+        const std::vector<float> v = r.GetVector<float>();
+        state_pose.insert(state_pose.end(), v.begin(), v.end());
+      }
+      state_weights.assign(chosen.size() * S, 0.f);
+      FC_INFO("person fit: {} of {} frames with a face chosen for pose variety", chosen.size(),
+              with_face.size());
+    });
+    comm.Broadcast(&chosen);
+    comm.Broadcast(&state_pose);
+    comm.Broadcast(&state_weights);
+  }
+  const int64_t n = static_cast<int64_t>(chosen.size());
+
+  // Rounds.
+  std::vector<double> round_cost;
+  for (int64_t round = rounds_done; round < rounds; ++round) {
+    const bool refining = round >= o.fit.landmark_rounds;
+    std::vector<track::PersonFrameContribution> contributions(n);
+    loop.what = "person fit: round " + std::to_string(round + 1) + "/" + std::to_string(rounds) +
+                (refining ? " (inverse rendering)" : " (landmarks)");
+    auto compute = [&](int64_t k, int) {
+      render::CropView view;
+      track::PersonFrame frame;
+      frame.target = make_target(chosen[k], refining, &view);
+      const float* p = &state_pose[8 * k];
+      frame.pose.pitch = p[0];
+      frame.pose.yaw = p[1];
+      frame.pose.roll = p[2];
+      frame.pose.translation = Eigen::Vector3f(p[3], p[4], p[5]);
+      frame.pose.scale = p[6];
+      frame.weights = Eigen::Map<const Eigen::VectorXf>(&state_weights[S * k], S);
+      const track::PersonFrameContribution c = fitter.SolveFrame(identity, refining, &frame);
+      ByteWriter w;
+      PutPose(&w, frame.pose);
+      w.PutArray(frame.weights.data(), S);
+      w.PutArray(c.normal.data(), K * K);
+      w.PutArray(c.gradient.data(), K);
+      w.Put<double>(c.cost);
+      w.Put<double>(c.landmark_rms);
+      w.Put<double>(c.weight);
+      return std::move(w.bytes());
+    };
+    auto commit = [&](const std::vector<int64_t>& done, const std::vector<std::vector<uint8_t>>& r) {
+      for (size_t i = 0; i < done.size(); ++i) {
+        const int64_t k = done[i];
+        ByteReader reader(r[i]);
+        const rig::RigidPose p = GetPose(&reader);
+        const float v[8] = {p.pitch, p.yaw, p.roll, p.translation.x(), p.translation.y(),
+                            p.translation.z(), p.scale, 0.f};
+        std::copy(v, v + 8, state_pose.begin() + 8 * k);
+        const std::vector<float> w = reader.GetVector<float>();
+        std::copy(w.begin(), w.end(), state_weights.begin() + S * k);
+        track::PersonFrameContribution& c = contributions[k];
+        const std::vector<double> normal = reader.GetVector<double>();
+        const std::vector<double> gradient = reader.GetVector<double>();
+        c.normal = Eigen::Map<const Eigen::MatrixXd>(normal.data(), K, K);
+        c.gradient = Eigen::Map<const Eigen::VectorXd>(gradient.data(), K);
+        c.cost = reader.Get<double>();
+        c.landmark_rms = reader.Get<double>();
+        c.weight = reader.Get<double>();
+      }
+    };
+    std::vector<int64_t> all(n);
+    for (int64_t k = 0; k < n; ++k) all[k] = k;
+    RunFrameLoop(comm, all, n, loop, compute, commit);
+    // Rank 0 takes the step from the contributions in frame order, checkpoints, and shares.
+    dist::CoordinateExceptions(comm, [&] {
+      if (!comm.IsMainRank()) return;
+      double cost = 0., rms = 0.;
+      for (const auto& c : contributions) {
+        cost += c.weight * c.cost;
+        rms += c.landmark_rms / static_cast<double>(n);
+      }
+      identity = fitter.Step(identity, contributions, refining);
+      if (round + 1 == o.fit.landmark_rounds) landmarks_only = identity;
+      FC_INFO("person fit: round {}/{}: weighted cost {:.4g}, mean landmark RMS {:.3f} px (of a "
+              "128-pixel crop), |alpha| {:.3f}",
+              round + 1, rounds, cost, rms, identity.norm());
+      io::H5File& f = output.file;
+      if (!f.Exists("/person/frames/index")) {
+        f.WriteVector("/person/frames/index", chosen);
+        f.SetAttribute("/person/frames/index", "meaning",
+                       std::string("rows of the ingest output chosen for pose variety"));
+      }
+      f.Write<float>("/person/frames/pose", {n, 8}, state_pose.data());
+      f.SetAttribute("/person/frames/pose", "columns",
+                     std::string("pitch, yaw, roll (rad), tx, ty, tz (cm), scale, 0: in each "
+                                 "frame's crop camera"));
+      f.Write<float>("/person/frames/weights", {n, S}, state_weights.data());
+      std::vector<double> id(identity.data(), identity.data() + K);
+      f.WriteVector("/person/identity", id);
+      std::vector<double> lo(landmarks_only.data(), landmarks_only.data() + K);
+      f.WriteVector("/person/landmarks_only_identity", lo);
+      std::vector<double> rms_per_frame(n), weight_per_frame(n);
+      for (int64_t k = 0; k < n; ++k) {
+        rms_per_frame[k] = contributions[k].landmark_rms;
+        weight_per_frame[k] = contributions[k].weight;
+      }
+      f.WriteVector("/person/frames/landmark_rms", rms_per_frame);
+      f.SetAttribute("/person/frames/landmark_rms", "units", std::string("pixels of a 128-pixel crop"));
+      f.WriteVector("/person/frames/robust_weight", weight_per_frame);
+      f.WriteVector<int64_t>("/progress/rounds", {round + 1});
+      f.Flush();
+    });
+    comm.Broadcast(identity.data(), K * sizeof(double));
+    comm.Broadcast(landmarks_only.data(), K * sizeof(double));
+    comm.Broadcast(&state_pose);
+    comm.Broadcast(&state_weights);
+    MaybeInjectFault(comm, round + 1);
+    if (comm.AnyTrue(StopRequested()) && round + 1 < rounds) {
+      throw InterruptedError("person fit: stopped by signal after round " + std::to_string(round + 1) +
+                             " of " + std::to_string(rounds) +
+                             "; the output keeps it, rerun the same command to continue");
+    }
+  }
+  if (o.fit.landmark_rounds == 0) landmarks_only = identity;
+
+  // The person's rig: identity applied, shapes moved by deformation transfer.
+  dist::CoordinateExceptions(comm, [&] {
+    if (!comm.IsMainRank()) return;
+    const rig::Rig person = assets::PersonRig(generic, fitter.Neutral(identity));
+    io::H5File& f = output.file;
+    if (f.Exists("/rig")) f.Remove("/rig");
+    io::WriteRig(person, &f, "/rig");
+    const rig::Vertices lo = fitter.Neutral(landmarks_only);
+    f.WriteMatrix("/person/landmarks_only_neutral", lo);
+    f.WriteMatrix("/person/template_neutral", generic.neutral);
+    f.SetAttribute("/person/template_neutral", "meaning",
+                   std::string("the generic rig's neutral the person was fitted from (cm)"));
+    f.SetAttribute("/person/landmarks_only_neutral", "meaning",
+                   std::string("the neutral after the landmark phase, before the refinement by "
+                               "inverse rendering (cm)"));
+    f.SetAttribute("/person/identity", "columns",
+                   std::string("identity mode coefficients alpha (rig's /rig/identity_modes "
+                               "order)"));
+    f.SetAttribute("/person", "refined", static_cast<int64_t>(refine ? 1 : 0));
+    f.Commit();
+    FC_INFO("person fit: |alpha| {:.3f}; the person's rig -> {}", identity.norm(), o.out);
+  });
+}
+
+}  // namespace
+
+void RegisterPerson(CLI::App* app, AppState* state) {
+  CLI::App* person = app->add_subcommand("person", "The person's own rig from their footage");
+  person->require_subcommand(1);
+  AddStage<PersonFitStageOptions>(
+      person, state, "fit", "person.fit", "person fit",
+      "The person's neutral geometry from many frames (paper 000 Sec. 5.1): identity modes "
+      "fitted jointly with each chosen frame's pose and expression to ingest's 68 "
+      "landmarks, refined by inverse rendering of the segmentation translations; the rig's "
+      "shapes moved onto the person by deformation transfer. Frames spread across ranks, the "
+      "same result for any rank count, resumable",
+      RunPersonFit);
+}
+
+}  // namespace facecap::stages

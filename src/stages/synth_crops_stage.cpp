@@ -1,0 +1,145 @@
+// facecap synth crops: a synthetic clip's frames as ingest cropped its video, beside the clip's
+// segmentation renders warped by the same crop transforms (nearest neighbour, so that every
+// pixel keeps a region colour), with the clip's regions. Two uses: paired examples for the
+// deepfake (wild frames of other people with their true segmentation) in the framing of real
+// crops, and the true segmentation of a clip's crops, for the oracle solves of the demo.
+// Rank 0 alone: a copy and a warp per frame.
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/LU>
+
+#include "io/hdf5.h"
+#include "stages/cli.h"
+#include "stages/ingested_frames.h"
+#include "stages/registry.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/progress.h"
+
+namespace facecap::stages {
+namespace {
+
+// [synth.crops]
+struct SynthCropsOptions {
+  std::string clip = "clip.h5";        // synth clip output (its segmentation and regions)
+  std::string frames = "frames.h5";    // ingest output of the clip's video
+  std::string out = "crops.h5";
+
+  template <class V>
+  void Visit(V&& v) {
+    v("clip", clip, "synth clip output (HDF5) with /frames/segmentation and /regions");
+    v("frames", frames, "ingest output of that clip's video (its crops and crop transforms)");
+    v("out", out, "output (HDF5): /frames/image (the crops), /frames/segmentation (warped), "
+                  "/frames/found, /regions");
+  }
+  bool Check(std::string* why) const {
+    if (clip.empty() || frames.empty() || out.empty()) {
+      *why = "clip, frames and out are required";
+      return false;
+    }
+    return true;
+  }
+};
+
+// The segmentation seen through a crop transform (source -> crop pixels, pixel centres at
+// integers), nearest neighbour, black outside the source.
+void WarpNearest(const uint8_t* source, int width, int height, const float* transform, int size,
+                 uint8_t* out) {
+  const Eigen::Map<const Eigen::Matrix<float, 2, 3, Eigen::RowMajor>> m(transform);
+  const Eigen::Matrix2f inverse = m.leftCols<2>().inverse();
+  const Eigen::Vector2f t = m.col(2);
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const Eigen::Vector2f p = inverse * (Eigen::Vector2f(static_cast<float>(x), static_cast<float>(y)) - t);
+      const int sx = static_cast<int>(std::lround(p.x())), sy = static_cast<int>(std::lround(p.y()));
+      uint8_t* o = out + 3 * (static_cast<size_t>(y) * size + x);
+      if (sx < 0 || sy < 0 || sx >= width || sy >= height) {
+        o[0] = o[1] = o[2] = 0;
+        continue;
+      }
+      const uint8_t* s = source + 3 * (static_cast<size_t>(sy) * width + sx);
+      o[0] = s[0];
+      o[1] = s[1];
+      o[2] = s[2];
+    }
+  }
+}
+
+void RunSynthCrops(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<SynthCropsOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  std::string why;
+  if (!o.Check(&why)) throw InvalidInputError("synth crops: " + why);
+  io::H5File clip = io::H5File::OpenRead(o.clip);
+  io::H5File frames = io::H5File::OpenRead(o.frames);
+  const io::Shape seg = clip.CheckShape("/frames/segmentation", {-1, -1, -1, 3});
+  if (!clip.Exists("/regions/colors") || !clip.Exists("/regions/names")) {
+    throw FileIOError(o.clip + ": no /regions (not a synth clip output)");
+  }
+  const io::Shape crop = frames.CheckShape("/frames/crop", {-1, -1, -1, 3});
+  const int64_t n = crop[0];
+  const int size = static_cast<int>(crop[1]);
+  frames.CheckShape("/frames/crop_transform", {n, 2, 3});
+  frames.CheckShape("/frames/found", {n});
+  frames.CheckShape("/frames/source_index", {n});
+  const std::vector<int64_t> source = frames.ReadVector<int64_t>("/frames/source_index", n);
+  const std::vector<uint8_t> found = frames.ReadVector<uint8_t>("/frames/found", n);
+  const std::vector<float> transform = frames.Read<float>("/frames/crop_transform", {n, 2, 3});
+  for (int64_t k = 0; k < n; ++k) {
+    if (source[k] < 0 || source[k] >= seg[0]) {
+      throw FileIOError(o.frames + ": frame " + std::to_string(k) + " comes from source frame " +
+                        std::to_string(source[k]) + ", but " + o.clip + " has " +
+                        std::to_string(seg[0]) + " frames: not the ingest of this clip");
+    }
+  }
+  const int W = static_cast<int>(seg[2]), H = static_cast<int>(seg[1]);
+  io::H5File f = io::H5File::CreateAtomic(o.out);
+  f.WriteProvenance(MakeProvenance(ctx, "synth crops", resolved));
+  f.CreateFrames<uint8_t>("/frames/image", {size, size, 3}, n, 8);
+  f.SetAttribute("/frames/image", "layout", std::string("frame, y, x, RGB: ingest's crops"));
+  f.CreateFrames<uint8_t>("/frames/segmentation", {size, size, 3}, n, 8);
+  f.SetAttribute("/frames/segmentation", "layout",
+                 std::string("frame, y, x, RGB: the clip's segmentation through each crop "
+                             "transform (nearest); region colours of /regions/colors"));
+  f.WriteVector("/frames/found", found);
+  f.SetAttribute("/frames/found", "meaning", std::string("1: ingest found the face (frames with 0 are not used)"));
+  f.Write<float>("/frames/crop_transform", {n, 2, 3}, transform.data());
+  f.WriteVector("/frames/source_index", source);
+  f.WriteStrings("/regions/names", clip.ReadStrings("/regions/names"));
+  const auto colors = clip.ReadMatrix<float>("/regions/colors");
+  f.WriteMatrix("/regions/colors", colors);
+  Image8 image(size, size, 3), warped(size, size, 3), segmentation(W, H, 3);
+  Progress progress("synth crops", n);
+  for (int64_t k = 0; k < n; ++k) {
+    frames.ReadFrames<uint8_t>("/frames/crop", k, 1, image.data.data());
+    if (found[k]) {
+      clip.ReadFrames<uint8_t>("/frames/segmentation", source[k], 1, segmentation.data.data());
+      WarpNearest(segmentation.data.data(), W, H, &transform[6 * k], size, warped.data.data());
+    } else {
+      std::fill(warped.data.begin(), warped.data.end(), 0);
+    }
+    f.WriteFrames<uint8_t>("/frames/image", k, 1, image.data.data());
+    f.WriteFrames<uint8_t>("/frames/segmentation", k, 1, warped.data.data());
+    progress.Update(k + 1);
+  }
+  progress.Finish();
+  f.Commit();
+  FC_INFO("synth crops: {} frames ({} with a face) -> {}", n,
+          std::count(found.begin(), found.end(), uint8_t{1}), o.out);
+}
+
+}  // namespace
+
+void RegisterSynthCrops(CLI::App* synth, AppState* state) {
+  AddStage<SynthCropsOptions>(
+      synth, state, "crops", "synth.crops", "synth crops",
+      "A synthetic clip as ingest cropped its video: the crops beside the clip's segmentation "
+      "warped by the same crop transforms, with the regions (paired deepfake examples in the "
+      "framing of real crops; the true segmentation of a clip's crops for oracle solves)",
+      RunSynthCrops);
+}
+
+}  // namespace facecap::stages
