@@ -20,6 +20,7 @@
 #include "rig/compare.h"
 #include "rig/evaluate.h"
 #include "stages/cli.h"
+#include "stages/ingested_frames.h"
 #include "stages/tracked_rig.h"
 #include "stages/registry.h"
 #include "util/errors.h"
@@ -321,7 +322,7 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
 
 // [eval.landmarks]
 struct EvalLandmarksOptions {
-  std::string frames = "frames.h5";  // ingest output: /frames/landmarks_crop, /frames/found
+  std::string frames = "frames.h5";  // ingest output: detected landmarks, crops, camera
   std::string track = "track.h5";    // tracking of the frames' translations
   std::string rig = "rig.h5";        // the rig that was tracked
   int holdout_every = 0;             // frames i % n == n - 1 were held out of training
@@ -330,8 +331,8 @@ struct EvalLandmarksOptions {
 
   template <class V>
   void Visit(V&& v) {
-    v("frames", frames, "ingest output (HDF5) with /frames/landmarks_crop and /frames/found");
-    v("track", track, "track.h5 of the frames' translations (its /camera/intrinsics)");
+    v("frames", frames, "ingest output (frames.h5): dlib's landmarks in source pixels");
+    v("track", track, "track.h5 of the frames' crops (track --frames: in the source camera)");
     v("rig", rig, "the rig that was tracked (HDF5)");
     v("holdout_every", holdout_every,
       "frames i % n == n - 1 were held out of deepfake training: reported apart (0: none)");
@@ -351,18 +352,16 @@ void RunEvalLandmarks(const StageFlags& flags, AppState* state) {
   if (!ctx.comm.IsMainRank()) return;
   const rig::Rig rig = io::ReadRigFile(o.rig);
   if (rig.landmarks.size() != 68) throw FileIOError(o.rig + ": the rig has no 68 landmarks");
-  io::H5File frames = io::H5File::OpenRead(o.frames);
+  const IngestedFrames frames = IngestedFrames::Read(o.frames);
   const TrackedRig track(o.track, rig);
   const int64_t n = track.NumFrames();
-  const io::Shape crop = frames.CheckShape("/frames/crop", {-1, -1, -1, 3});
-  if (crop[0] < n) throw FileIOError(o.frames + " has fewer frames than " + o.track);
-  frames.CheckShape("/frames/landmarks_crop", {crop[0], 68, 2});
-  std::vector<float> detected(static_cast<size_t>(crop[0]) * 68 * 2);
-  frames.ReadFrames<float>("/frames/landmarks_crop", 0, crop[0], detected.data());
-  const std::vector<uint8_t> found = frames.ReadVector<uint8_t>("/frames/found", crop[0]);
-  if (!track.HasCameraWidth()) throw FileIOError(o.track + ": /camera/intrinsics has no width attribute");
-  // Projected rig landmarks are in the tracked images' pixels: scale them to crop pixels.
-  const render::Camera camera = track.CameraForWidth(static_cast<int>(crop[2]), static_cast<int>(crop[1]));
+  if (!track.InSourceCamera()) {
+    throw FileIOError(o.track + ": not a track of an ingest output's crops (track --frames)");
+  }
+  if (frames.NumFrames() != n) {
+    throw FileIOError(o.frames + " has " + std::to_string(frames.NumFrames()) + " frames, " +
+                      o.track + " has " + std::to_string(n));
+  }
   const rig::RigEvaluator evaluator(rig);
   rig::Vertices posed;
   // [all, held out, trained on]
@@ -370,17 +369,18 @@ void RunEvalLandmarks(const StageFlags& flags, AppState* state) {
   int count[3] = {0, 0, 0};
   std::vector<double> errors;
   for (int64_t f = 0; f < n; ++f) {
-    if (!found[f]) continue;
+    if (!frames.Found(f) || !track.Solved(f)) continue;
     evaluator.EvaluatePosed(track.Pose(f), track.Weights(f), &posed);
-    auto point = [&](int l) {
-      const float* p = &detected[(static_cast<size_t>(f) * 68 + l) * 2];
-      return Eigen::Vector2f(p[0], p[1]);
-    };
+    const render::Camera camera = frames.SourceCamera(f);
+    const auto detected = frames.SourceLandmarks(f);
+    auto point = [&](int l) { return Eigen::Vector2f(detected.row(l).transpose()); };
     const double iod = (point(36) - point(45)).norm();
     if (!(iod > 1e-3)) continue;
     double e = 0.;
     for (int l = 0; l < 68; ++l) {
-      const Eigen::Vector2f q = camera.Project(posed.row(rig.landmarks[l]).transpose()).head<2>();
+      // Camera coordinates put pixel centres at i + 0.5, dlib's landmarks at i.
+      const Eigen::Vector2f q = camera.Project(posed.row(rig.landmarks[l]).transpose()).head<2>() -
+                                Eigen::Vector2f(0.5f, 0.5f);
       e += (q - point(l)).norm();
     }
     e /= 68. * iod;
@@ -498,15 +498,17 @@ void RegisterEval(CLI::App* app, AppState* state) {
   }
   AddStage<EvalTrackOptions>(
       eval, state, "track", "eval.track", "eval track",
-      "Tracking accuracy against the truth: pose error (deg), weight MAE (overall and per "
-      "shape), landmark NME and mean vertex error over the inter-ocular distance (outer eye "
-      "corners 36, 45), seconds per frame; one JSON object",
+      "Tracking accuracy against the truth, each beside the neutral face's: pose error (deg), "
+      "weight MAE (overall, over the truth's active weights, per shape), expression vertex "
+      "error (rigid pose and identity removed), landmark NME and vertex error over the "
+      "inter-ocular distance (outer eye corners 36, 45), seconds per frame; one JSON object",
       RunEvalTrack);
   AddStage<EvalLandmarksOptions>(
       eval, state, "landmarks", "eval.landmarks", "eval landmarks",
-      "Real footage: reprojection error of the tracked rig's 68 landmarks against the landmarks "
-      "detected in the ingest crops, over the detected inter-ocular distance, on all frames "
-      "with a face and on the frames held out of deepfake training; one JSON object",
+      "Real footage: the tracked rig's 68 landmarks against dlib's in source pixels, over the "
+      "detected outer-eye-corner distance, on all frames with a face and on the frames held "
+      "out of deepfake training apart; one JSON object (score against an independent "
+      "landmarker with export landmarks and analysis/compare_landmarks.py)",
       RunEvalLandmarks);
   AddStage<EvalPersonOptions>(
       eval, state, "person", "eval.person", "eval person",

@@ -191,6 +191,30 @@ TEST_F(FootageStage, ExportedLandmarksMatchTheRendersThroughTheCropTransform) {
     EXPECT_GE(visible, 40) << "frame " << k;
   }
   EXPECT_FALSE(std::getline(csv, line)) << "one row per ingested frame";
+
+  // eval landmarks: the tracked rig against the frames' landmarks, and against the same
+  // landmarks moved by 4 pixels; frames without a face are left out.
+  auto nme = [&](const std::string& frames) {
+    auto e = RunFacecap("eval landmarks --frames " + frames + " --track " + File("track_a.h5") +
+                        " --rig " + File("rig.h5") + " --holdout-every 2");
+    EXPECT_EQ(e.code, 0) << e.output;
+    EXPECT_NE(e.output.find("\"frames\": 4"), std::string::npos) << e.output;
+    EXPECT_NE(e.output.find("\"held_out_frames\": 1"), std::string::npos) << e.output;
+    const size_t at = e.output.find("\"landmark_nme\": ");
+    return at == std::string::npos ? -1.0 : std::stod(e.output.substr(at + 16));
+  };
+  const double exact = nme(File("frames_a.h5"));
+  {
+    std::filesystem::copy_file(File("frames_a.h5"), File("frames_shifted.h5"));
+    io::H5File f = io::H5File::OpenReadWrite(File("frames_shifted.h5"));
+    std::vector<float> lm = f.Read<float>("/frames/landmarks", {});
+    for (size_t i = 0; i < lm.size(); i += 2) lm[i] += 4.f;
+    f.Write<float>("/frames/landmarks", {static_cast<int64_t>(shots.size()), 68, 2}, lm.data());
+  }
+  const double shifted = nme(File("frames_shifted.h5"));
+  EXPECT_GE(exact, 0.0);
+  EXPECT_LT(exact, 0.01);
+  EXPECT_GT(shifted, exact + 0.03);
 }
 
 class PersonFit : public FootageStage {
@@ -264,6 +288,70 @@ TEST_F(PersonFit, AKilledFitContinuesToTheUninterruptedResult) {
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("2 of 6 rounds done"), std::string::npos) << r.output;
   EXPECT_EQ(Identity(File("person_straight.h5")), Identity(File("person_killed.h5")));
+}
+
+}  // namespace
+}  // namespace facecap::stages
+
+namespace facecap::stages {
+namespace {
+
+// jobs/demo.toml made small enough for a test.
+std::string TinyDemo() {
+  std::string sets;
+  for (const char* s :
+       {"rig.calibrate.people=1", "rig.calibrate.frames=4", "synth.clip.frames=16",
+        "synth.samples.count=64", "synth.clip-paired.frames=24", "deepfake.train.steps=3",
+        "deepfake.train.batch=4", "deepfake.train.checkpoint_every=0",
+        "deepfake.train.preview_every=0", "deepfake.infer.shift_average=0",
+        "person.fit.count=4", "person.fit.landmark_rounds=1", "person.fit.refine_rounds=1",
+        "track.levels=1", "track.epochs=1", "export.overlay.count=4"}) {
+    sets += std::string(" --set ") + s;
+  }
+  return "run " + testing::SourceDir() + "/jobs/demo.toml" + sets;
+}
+
+template <typename T>
+std::vector<T> Dataset(const std::string& path, const std::string& name) {
+  return io::H5File::OpenRead(path).Read<T>(name, {});
+}
+
+std::string Text(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// The demo's pipeline stages read nothing of the clip's truth: run from the mp4 alone, with
+// the clip's HDF5 file absent, they give the same outputs.
+TEST(DemoPipeline, StagesAfterTheVideoReadNoTruth) {
+  testing::TempDir with_truth, video_only;
+  auto r = testing::RunCommand("cd " + with_truth.path() + " && " + testing::BuildDir() +
+                               "/facecap " + TinyDemo() + " --until export.overlay 2>&1");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const std::string demo = with_truth.File("out/demo/");
+  ASSERT_TRUE(std::filesystem::exists(demo + "clip.h5"));
+  std::filesystem::create_directories(video_only.File("out/demo"));
+  for (const char* name : {"rig_generic.h5", "rig.h5", "clip.mp4"}) {
+    std::filesystem::copy_file(demo + name, video_only.File("out/demo/") + name);
+  }
+  r = testing::RunCommand("cd " + video_only.path() + " && " + testing::BuildDir() +
+                          "/facecap " + TinyDemo() + " --from ingest --until export.overlay 2>&1");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const std::string other = video_only.File("out/demo/");
+  EXPECT_FALSE(std::filesystem::exists(other + "clip.h5"));
+  EXPECT_EQ(Dataset<float>(demo + "frames.h5", "/frames/landmarks"),
+            Dataset<float>(other + "frames.h5", "/frames/landmarks"));
+  EXPECT_EQ(Dataset<uint8_t>(demo + "translated.h5", "/frames/translated"),
+            Dataset<uint8_t>(other + "translated.h5", "/frames/translated"));
+  EXPECT_EQ(Dataset<double>(demo + "person.h5", "/person/identity"),
+            Dataset<double>(other + "person.h5", "/person/identity"));
+  EXPECT_EQ(Dataset<float>(demo + "track.h5", "/track/pose"),
+            Dataset<float>(other + "track.h5", "/track/pose"));
+  EXPECT_EQ(Dataset<float>(demo + "track.h5", "/track/weights"),
+            Dataset<float>(other + "track.h5", "/track/weights"));
+  EXPECT_EQ(Text(demo + "landmarks.csv"), Text(other + "landmarks.csv"));
 }
 
 }  // namespace

@@ -46,6 +46,9 @@ struct PersonFitStageOptions {
   int count = 48;                        // frames chosen for pose variety
   int size = 64;                         // target size without translations (pixels)
   int threads = 0;                       // OpenMP threads per rank (0: cores / node ranks)
+  // Where the refinement starts: "generic" (the generic head; the landmark fit is kept as a
+  // baseline only) or "landmarks" (the landmark fit).
+  std::string refine_from = "generic";
   track::PersonFitOptions fit;
 
   template <class V>
@@ -61,6 +64,9 @@ struct PersonFitStageOptions {
     v("size", size, "size of the crop camera without translations (pixels)");
     v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
     v("landmark_rounds", fit.landmark_rounds, "rounds of the fit to the landmarks");
+    v("refine_from", refine_from,
+      "where the refinement starts: generic (the generic head; the landmark fit is kept as a "
+      "baseline, /person/landmarks_only_neutral) or landmarks (the landmark fit)");
     v("refine_rounds", fit.refine_rounds,
       "rounds of the refinement by inverse rendering of the translations (with translations)");
     v("identity_prior", fit.identity_prior,
@@ -69,6 +75,9 @@ struct PersonFitStageOptions {
     v("robust_px", fit.robust_px,
       "Cauchy scale of a frame's RMS landmark residual (pixels of a 128-pixel crop): frames "
       "whose landmarks fit badly count less");
+    v("robust_cost", fit.robust_cost,
+      "Cauchy scale of a frame's segmentation cost in the refinement, in medians over the "
+      "frames: frames whose translation fits badly count less");
     v("refine_landmark_weight", fit.refine_tracker.landmark_weight,
       "landmark term beside the segmentation cost in the refinement (per squared pixel)");
     v("refine_weight_prior", fit.refine_tracker.weight_prior,
@@ -79,6 +88,10 @@ struct PersonFitStageOptions {
     if (size < 16 || size > 1024) { *why = "size must be in [16, 1024]"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
     if (out.empty()) { *why = "out must name a file"; return false; }
+    if (refine_from != "generic" && refine_from != "landmarks") {
+      *why = "refine_from must be generic or landmarks, not " + refine_from;
+      return false;
+    }
     return fit.Check(why);
   }
 };
@@ -318,7 +331,6 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
       w.PutArray(c.gradient.data(), K);
       w.Put<double>(c.cost);
       w.Put<double>(c.landmark_rms);
-      w.Put<double>(c.weight);
       return std::move(w.bytes());
     };
     auto commit = [&](const std::vector<int64_t>& done, const std::vector<std::vector<uint8_t>>& r) {
@@ -338,7 +350,6 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
         c.gradient = Eigen::Map<const Eigen::VectorXd>(gradient.data(), K);
         c.cost = reader.Get<double>();
         c.landmark_rms = reader.Get<double>();
-        c.weight = reader.Get<double>();
       }
     };
     std::vector<int64_t> all(n);
@@ -347,13 +358,17 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
     // Rank 0 takes the step from the contributions in frame order, checkpoints, and shares.
     dist::CoordinateExceptions(comm, [&] {
       if (!comm.IsMainRank()) return;
+      identity = fitter.Step(identity, &contributions, refining);
       double cost = 0., rms = 0.;
       for (const auto& c : contributions) {
         cost += c.weight * c.cost;
         rms += c.landmark_rms / static_cast<double>(n);
       }
-      identity = fitter.Step(identity, contributions, refining);
-      if (round + 1 == o.fit.landmark_rounds) landmarks_only = identity;
+      if (round + 1 == o.fit.landmark_rounds) {
+        landmarks_only = identity;
+        // The refinement starts from the generic head or from the landmark fit.
+        if (refine && o.refine_from == "generic") identity.setZero();
+      }
       FC_INFO("person fit: round {}/{}: weighted cost {:.4g}, mean landmark RMS {:.3f} px (of a "
               "128-pixel crop), |alpha| {:.3f}",
               round + 1, rounds, cost, rms, identity.norm());
@@ -372,11 +387,16 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
       f.WriteVector("/person/identity", id);
       std::vector<double> lo(landmarks_only.data(), landmarks_only.data() + K);
       f.WriteVector("/person/landmarks_only_identity", lo);
-      std::vector<double> rms_per_frame(n), weight_per_frame(n);
+      std::vector<double> rms_per_frame(n), weight_per_frame(n), cost_per_frame(n);
       for (int64_t k = 0; k < n; ++k) {
         rms_per_frame[k] = contributions[k].landmark_rms;
         weight_per_frame[k] = contributions[k].weight;
+        cost_per_frame[k] = contributions[k].cost;
       }
+      f.WriteVector("/person/frames/cost", cost_per_frame);
+      f.SetAttribute("/person/frames/cost", "meaning",
+                     std::string("the frame's objective in the last round, in units of a "
+                                 "128 x 128 target"));
       f.WriteVector("/person/frames/landmark_rms", rms_per_frame);
       f.SetAttribute("/person/frames/landmark_rms", "units", std::string("pixels of a 128-pixel crop"));
       f.WriteVector("/person/frames/robust_weight", weight_per_frame);
@@ -394,7 +414,7 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
                              "; the output keeps it, rerun the same command to continue");
     }
   }
-  if (o.fit.landmark_rounds == 0) landmarks_only = identity;
+  if (o.fit.landmark_rounds == 0) landmarks_only.setZero();
 
   // The person's rig: identity applied, shapes moved by deformation transfer.
   dist::CoordinateExceptions(comm, [&] {

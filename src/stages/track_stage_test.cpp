@@ -200,45 +200,6 @@ TEST_F(TrackStage, FramesWithoutAFaceAreHeldNotSolved) {
   EXPECT_EQ(e.output.find("nan"), std::string::npos) << e.output;
 }
 
-// eval landmarks on frames whose "detected" landmarks are the true ones: the tracked rig's
-// landmarks reproject within a few percent of the inter-ocular distance; the same landmarks
-// moved by 4 pixels score worse by about that much; frames without a face are left out.
-TEST_F(TrackStage, EvalLandmarksScoresReprojectionAgainstTheDetectedLandmarks) {
-  const std::string track = File("lm_track.h5");
-  auto r = RunFacecap("track --rig " + File("rig.h5") + " --targets " + File("samples.h5") +
-                      " --levels 1 --epochs 2 --out " + track);
-  ASSERT_EQ(r.code, 0) << r.output;
-  io::H5File samples = io::H5File::OpenRead(File("samples.h5"));
-  const std::vector<float> truth = samples.Read<float>("/samples/landmarks", {});
-  std::vector<uint8_t> images = samples.Read<uint8_t>("/samples/segmentation", {});
-  auto write_frames = [&](const std::string& name, float shift) {
-    io::H5File f = io::H5File::CreateAtomic(File(name));
-    f.CreateFrames<uint8_t>("/frames/crop", {64, 64, 3}, 5, 1);
-    f.WriteFrames<uint8_t>("/frames/crop", 0, 5, images.data());
-    std::vector<float> landmarks = truth;
-    for (size_t i = 0; i < landmarks.size(); i += 2) landmarks[i] += shift;
-    f.CreateFrames<float>("/frames/landmarks_crop", {68, 2}, 5, 1);
-    f.WriteFrames<float>("/frames/landmarks_crop", 0, 5, landmarks.data());
-    f.WriteVector<uint8_t>("/frames/found", {1, 1, 0, 1, 1});
-    f.Commit();
-  };
-  write_frames("lm_frames.h5", 0.f);
-  write_frames("lm_shifted.h5", 4.f);
-  auto nme = [&](const std::string& frames) {
-    auto e = RunFacecap("eval landmarks --frames " + File(frames) + " --track " + track +
-                        " --rig " + File("rig.h5") + " --holdout-every 2");
-    EXPECT_EQ(e.code, 0) << e.output;
-    EXPECT_NE(e.output.find("\"frames\": 4"), std::string::npos) << e.output;
-    EXPECT_NE(e.output.find("\"held_out_frames\": 2"), std::string::npos) << e.output;
-    const size_t at = e.output.find("\"landmark_nme\": ");
-    return at == std::string::npos ? -1.0 : std::stod(e.output.substr(at + 16));
-  };
-  const double exact = nme("lm_frames.h5"), shifted = nme("lm_shifted.h5");
-  EXPECT_GE(exact, 0.0);
-  EXPECT_LT(exact, 0.05);
-  EXPECT_GT(shifted, exact + 0.05);
-}
-
 TEST_F(TrackStage, RejectsBadOptions) {
   EXPECT_EQ(RunFacecap(Args(File("bad.h5")) + " --init sideways").code, kExitUsage);
   EXPECT_EQ(RunFacecap(Args(File("bad.h5")) + " --objective pixels").code, kExitUsage);

@@ -16,7 +16,7 @@ PersonFitOptions::PersonFitOptions() {
   landmark_tracker.levels = 1;
   landmark_tracker.epochs = 3;
   refine_tracker.objective = "segmentation";
-  refine_tracker.landmark_weight = 1.f;
+  refine_tracker.landmark_weight = 0.f;
   refine_tracker.weight_prior = 30.f;
 }
 
@@ -30,6 +30,7 @@ bool PersonFitOptions::Check(std::string* why) const {
     return false;
   }
   if (!(robust_px > 0. && robust_px < 1e6)) { *why = "robust_px must be in (0, 1e6)"; return false; }
+  if (!(robust_cost > 0. && robust_cost < 1e6)) { *why = "robust_cost must be in (0, 1e6)"; return false; }
   if (!(damping >= 0. && damping < 1e3)) { *why = "damping must be in [0, 1e3)"; return false; }
   if (landmark_tracker.objective != "landmarks") {
     *why = "the landmark phase solves the landmarks objective";
@@ -169,7 +170,6 @@ PersonFrameContribution PersonFitter::SolveFrame(const Eigen::VectorXd& identity
     }
     c.landmark_rms = std::sqrt(sum / std::max(1, visible)) * 128. / cam.width;
   }
-  c.weight = 1. / (1. + std::pow(c.landmark_rms / m.options.robust_px, 2));
   // Every frame's system in the units of a 128 x 128 target.
   const double unit = 128. * 128. / pixels;
   c.normal *= unit;
@@ -179,12 +179,24 @@ PersonFrameContribution PersonFitter::SolveFrame(const Eigen::VectorXd& identity
 }
 
 Eigen::VectorXd PersonFitter::Step(const Eigen::VectorXd& identity,
-                                   const std::vector<PersonFrameContribution>& frames,
-                                   bool /*refine*/) const {
+                                   std::vector<PersonFrameContribution>* frames,
+                                   bool refine) const {
   const int K = NumIdentityParams();
+  const PersonFitOptions& o = impl_->options;
+  double scale = o.robust_px;
+  if (refine && !frames->empty()) {
+    std::vector<double> costs;
+    for (const PersonFrameContribution& c : *frames) costs.push_back(c.cost);
+    std::nth_element(costs.begin(), costs.begin() + costs.size() / 2, costs.end());
+    scale = o.robust_cost * std::max(costs[costs.size() / 2], 1e-12);
+  }
+  for (PersonFrameContribution& c : *frames) {
+    const double e = refine ? c.cost : c.landmark_rms;
+    c.weight = 1. / (1. + (e / scale) * (e / scale));
+  }
   Eigen::MatrixXd h = Eigen::MatrixXd::Zero(K, K);
   Eigen::VectorXd g = Eigen::VectorXd::Zero(K);
-  for (const PersonFrameContribution& c : frames) {
+  for (const PersonFrameContribution& c : *frames) {
     h += c.weight * c.normal;
     g += c.weight * c.gradient;
   }

@@ -41,14 +41,17 @@ namespace facecap::track {
 struct PersonFitOptions {
   // Rounds of the landmark phase and of the refinement by inverse rendering.
   int landmark_rounds = 10;
-  int refine_rounds = 4;
+  int refine_rounds = 8;
   // Weight of the Gaussian prior on the identity, in squared landmark pixels of a 128-pixel
   // target (about the variance of the landmark noise there): the MAP estimate of alpha under
   // landmark noise of that variance.
-  double identity_prior = 2.0;
-  // Cauchy scale (pixels of a 128-pixel target) of a frame's RMS landmark residual: frames
-  // whose landmarks do not fit count as 1 / (1 + (rms / robust_px)^2).
+  double identity_prior = 20.0;
+  // Robust frame weights 1 / (1 + (e / scale)^2), so that frames whose landmarks or whose
+  // translation failed count little: in the landmark phase e is the frame's RMS landmark
+  // residual and the scale robust_px (pixels of a 128-pixel target); in the refinement e is
+  // the frame's segmentation cost and the scale robust_cost times the median over frames.
   double robust_px = 4.0;
+  double robust_cost = 2.0;
   // Levenberg damping of the identity step, relative to the diagonal.
   double damping = 1e-3;
   // Per-frame solves of the landmark phase and of the refinement.
@@ -93,9 +96,10 @@ class PersonFitter {
   // (refine: the segmentation objective), updating *frame, and returns its contribution.
   PersonFrameContribution SolveFrame(const Eigen::VectorXd& identity, bool refine,
                                      PersonFrame* frame) const;
-  // Step 3: the new identity from the contributions of every frame, in frame order.
+  // Step 3: the new identity from the contributions of every frame, in frame order; sets
+  // each frame's robust weight first.
   Eigen::VectorXd Step(const Eigen::VectorXd& identity,
-                       const std::vector<PersonFrameContribution>& frames, bool refine) const;
+                       std::vector<PersonFrameContribution>* frames, bool refine) const;
 
  private:
   struct Impl;
