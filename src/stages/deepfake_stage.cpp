@@ -59,13 +59,13 @@ struct DeepfakeTrainOptions {
   int b_holdout_every = 0;                       // B frames i % n == n - 1 are not trained on
   std::vector<std::string> paired;               // wild clips of other people (synth clip) as
                                                  // paired A examples (empty: none)
-  double paired_fraction = 0.5;                  // share of A examples drawn from `paired`
-  bool palette_head = false;                     // D_A chooses among A's region colours
+  double paired_fraction = 0.8;                  // share of A examples drawn from `paired`
+  bool palette_head = true;                      // D_A chooses among A's region colours
   std::string out = "deepfake.h5";               // model file
-  int steps = 2000;                              // training steps (global batches)
+  int steps = 4500;                              // training steps (global batches)
   double decay_fraction = 0;                     // last share of the steps with falling rates
-  double average_decay = 0;                      // moving average of the weights (0: none)
-  int batch = 16;                                // global batch: images of A and of B per step
+  double average_decay = 0.999;                  // moving average of the weights (0: none)
+  int batch = 8;                                 // global batch: images of A and of B per step
   int seed = 1;                                  // initial weights and batch sampling
   int checkpoint_every = 200;                    // steps between checkpoints (0: only at the end)
   int preview_every = 200;                       // steps between preview grids (0: only at the end)
@@ -77,6 +77,22 @@ struct DeepfakeTrainOptions {
   nn::DeepfakeNetworkOptions network;            // architecture
   nn::DeepfakeLossOptions loss;                  // loss weights and Adam
   nn::AugmentOptions augment;                    // augmentation
+
+  // The subcommand's defaults are the recipe that measured best (analysis/RESULTS.md): U-Net
+  // skips from the two finest levels and one at the input resolution, D_A at width 24 with a
+  // palette head, a narrow D_B, the palette cross-entropy and Dice terms, the gradient cap,
+  // random backgrounds behind half of the paired frames.
+  DeepfakeTrainOptions() {
+    network.skips = 2;
+    network.decoder_width = 24;
+    network.decoder_b_width = 16;
+    network.input_skip_width = 16;
+    loss.palette_weight = 1.f;
+    loss.region_l1_weight = 0.f;
+    loss.dice_weight = 1.f;
+    loss.gradient_clip = 3.f;
+    augment.random_background = 0.5f;
+  }
 
   template <class V>
   void Visit(V&& v) {
@@ -160,7 +176,7 @@ struct DeepfakeInferOptions {
   // With a palette head and decoder A: also average over the frame moved by this many pixels
   // in x, y or both, either way, each moved back (with flip_average, each with its mirror
   // image): nine times the cost per frame. 0: off.
-  int shift_average = 0;
+  int shift_average = 3;
   // With a palette head and decoder A: each pixel's label maximizes log p_k - a log w_k over
   // the colours k, for the class weights w_k of the palette terms (the model file's
   // /training/region_weights). 0: the network's own most likely colour.

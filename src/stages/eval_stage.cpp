@@ -46,7 +46,8 @@ struct EvalTrackOptions {
     v("truth", truth, "file with the true pose and weights per frame (synth samples or clip)");
     v("track", track, "track.h5 written by facecap track");
     v("rig", rig, "the rig that was tracked (empty: the truth's own rig)");
-    v("truth_rig", truth_rig, "rig file of the truth (empty: the truth file's /rig)");
+    v("truth_rig", truth_rig,
+      "rig file of the truth (empty: the truth file's /rig, else the rig that was tracked)");
     v("json", json, "print one JSON object (false: a readable table)");
     v("out", out, "also write the JSON object to this file (empty: none)");
     v("per_frame", per_frame,
@@ -99,6 +100,8 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
     rig = io::ReadRigFile(o.truth_rig);
   } else if (truth.Exists("/rig/neutral")) {
     rig = io::ReadRig(truth);
+  } else if (!o.rig.empty()) {
+    rig = io::ReadRigFile(o.rig);  // synth samples: rendered with the rig that was tracked
   } else {
     throw InvalidInputError("eval track: " + o.truth + " has no /rig; pass --truth-rig");
   }
@@ -243,8 +246,9 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
       const float iod2 = (pa - pb).norm();
       double lm = 0.;
       for (int l = 0; l < L; ++l) {
+        // The same surface points on both meshes (one topology): the truth's landmarks.
         lm += (camera.Project(truth_posed.row(rig.landmarks[l]).transpose()).head<2>() -
-               tracked_camera.Project(solved_posed.row(tracked_rig.landmarks[l]).transpose()).head<2>())
+               tracked_camera.Project(solved_posed.row(rig.landmarks[l]).transpose()).head<2>())
                   .norm();
       }
       err.nme += lm / L / iod2;

@@ -239,7 +239,8 @@ class PersonFit : public FootageStage {
   static std::string Args(const std::string& out) {
     return "person fit --rig " + File("rig.h5") + " --frames " + File("frames.h5") +
            " --translations " + File("translated.h5") +
-           " --count 10 --landmark-rounds 4 --refine-rounds 2 --identity-prior 0.1 --out " + out;
+           " --count 10 --landmark-rounds 4 --refine-rounds 2 --identity-prior 0.1"
+           " --refine-from landmarks --out " + out;
   }
   static std::vector<double> Identity(const std::string& path) {
     return io::H5File::OpenRead(path).ReadVector<double>("/person/identity");

@@ -20,6 +20,8 @@
 #include "io/hdf5.h"
 #include "io/rig_io.h"
 #include "render/framing.h"
+#include "render/landmark_calibration.h"
+#include "rig/evaluate.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
 #include "stages/ingested_frames.h"
@@ -49,6 +51,10 @@ struct PersonFitStageOptions {
   // Where the refinement starts: "generic" (the generic head; the landmark fit is kept as a
   // baseline only) or "landmarks" (the landmark fit).
   std::string refine_from = "generic";
+  // The person's own landmark vertices: after the landmark phase, each of the 68 moves to the
+  // vertex within calibrate_radius_cm whose projections best match the frames' landmarks
+  // (render::CalibrateLandmarks); 0: the generic rig's.
+  float calibrate_radius_cm = 1.f;
   track::PersonFitOptions fit;
 
   template <class V>
@@ -64,6 +70,10 @@ struct PersonFitStageOptions {
     v("size", size, "size of the crop camera without translations (pixels)");
     v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
     v("landmark_rounds", fit.landmark_rounds, "rounds of the fit to the landmarks");
+    v("calibrate_radius_cm", calibrate_radius_cm,
+      "after the landmark phase, each landmark vertex moves to the vertex within this radius "
+      "(cm) that best matches the frames' landmarks: the person's own landmark positions "
+      "(0: the generic rig's)");
     v("refine_from", refine_from,
       "where the refinement starts: generic (the generic head; the landmark fit is kept as a "
       "baseline, /person/landmarks_only_neutral) or landmarks (the landmark fit)");
@@ -88,6 +98,10 @@ struct PersonFitStageOptions {
     if (size < 16 || size > 1024) { *why = "size must be in [16, 1024]"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
     if (out.empty()) { *why = "out must name a file"; return false; }
+    if (!(calibrate_radius_cm >= 0.f && calibrate_radius_cm <= 5.f)) {
+      *why = "calibrate_radius_cm must be in [0, 5]";
+      return false;
+    }
     if (refine_from != "generic" && refine_from != "landmarks") {
       *why = "refine_from must be generic or landmarks, not " + refine_from;
       return false;
@@ -219,6 +233,7 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
   std::vector<int64_t> chosen;
   Eigen::VectorXd identity = Eigen::VectorXd::Zero(K), landmarks_only = Eigen::VectorXd::Zero(K);
   std::vector<float> state_pose, state_weights;  // per chosen frame: 8 and S floats
+  std::vector<int32_t> person_landmarks(generic.landmarks.data(), generic.landmarks.data() + 68);
   dist::CoordinateExceptions(comm, [&] {
     if (!comm.IsMainRank()) return;
     output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "person fit", resolved));
@@ -236,6 +251,7 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
       landmarks_only = Eigen::Map<const Eigen::VectorXd>(lo.data(), K);
       state_pose = f.Read<float>("/person/frames/pose", {static_cast<int64_t>(chosen.size()), 8});
       state_weights = f.Read<float>("/person/frames/weights", {static_cast<int64_t>(chosen.size()), S});
+      if (f.Exists("/person/landmarks")) person_landmarks = f.ReadVector<int32_t>("/person/landmarks", 68);
       FC_INFO("person fit: continuing {}: {} of {} rounds done", io::H5File::PartialPath(o.out),
               rounds_done, rounds);
     }
@@ -358,6 +374,39 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
     // Rank 0 takes the step from the contributions in frame order, checkpoints, and shares.
     dist::CoordinateExceptions(comm, [&] {
       if (!comm.IsMainRank()) return;
+      if (round + 1 == o.fit.landmark_rounds && o.calibrate_radius_cm > 0.f) {
+        // The person's landmark vertices, from the frames as the landmark phase solved them.
+        const rig::Rig fitted = fitter.WithNeutral(identity);
+        const rig::RigEvaluator evaluator(fitted);
+        std::vector<render::CalibrationView> views(n);
+        for (int64_t k = 0; k < n; ++k) {
+          const float* p = &state_pose[8 * k];
+          rig::RigidPose pose;
+          pose.pitch = p[0];
+          pose.yaw = p[1];
+          pose.roll = p[2];
+          pose.translation = Eigen::Vector3f(p[3], p[4], p[5]);
+          pose.scale = p[6];
+          const Eigen::VectorXf w = Eigen::Map<const Eigen::VectorXf>(&state_weights[S * k], S);
+          evaluator.EvaluatePosed(pose, w, &views[k].posed);
+          views[k].camera = frames.CropCamera(chosen[k], size).camera;
+          views[k].detected = frames.CropLandmarks(chosen[k], size);
+        }
+        const render::LandmarkCalibration c =
+            render::CalibrateLandmarks(fitted, views, o.calibrate_radius_cm);
+        person_landmarks.assign(c.landmarks.data(), c.landmarks.data() + 68);
+        double before = 0., after = 0.;
+        for (int l = 0; l < 68; ++l) {
+          before += c.error_before[l] / 68.;
+          after += c.error_after[l] / 68.;
+        }
+        FC_INFO("person fit: the person's landmark vertices: mean distance to the frames' "
+                "landmarks {:.4f} -> {:.4f} of the eye-corner distance", before, after);
+        output.file.WriteVector("/person/landmarks", person_landmarks);
+        output.file.SetAttribute("/person/landmarks", "meaning",
+                                 std::string("the person's 68 landmark vertices (the rig's "
+                                             "/rig/landmarks), placed after the landmark phase"));
+      }
       identity = fitter.Step(identity, &contributions, refining);
       double cost = 0., rms = 0.;
       for (const auto& c : contributions) {
@@ -419,7 +468,8 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
   // The person's rig: identity applied, shapes moved by deformation transfer.
   dist::CoordinateExceptions(comm, [&] {
     if (!comm.IsMainRank()) return;
-    const rig::Rig person = assets::PersonRig(generic, fitter.Neutral(identity));
+    rig::Rig person = assets::PersonRig(generic, fitter.Neutral(identity));
+    person.landmarks = Eigen::Map<const Eigen::VectorXi>(person_landmarks.data(), 68);
     io::H5File& f = output.file;
     if (f.Exists("/rig")) f.Remove("/rig");
     io::WriteRig(person, &f, "/rig");

@@ -33,7 +33,9 @@ struct RigCalibrateOptions {
   int people = 8;                      // identities rendered
   int first_identity_seed = 9001;      // their seeds: first_identity_seed, +1, ...
   int frames = 24;                     // frames per person
-  int size = 256;                      // render size (pixels)
+  int size = 192;                      // render size (pixels)
+  float fov_deg = 40.f;                // vertical field of view of the renders' camera
+  float fill = 0.5f;                   // fraction of the frame height the face spans
   float max_yaw_deg = 25.f;            // head yaw range of the renders
   float radius_cm = 2.5f;              // search radius around each landmark vertex
   std::string landmark_model = face::kDefaultLandmarkModel;
@@ -49,6 +51,9 @@ struct RigCalibrateOptions {
       "of clips that are evaluated)");
     v("frames", frames, "frames rendered per person");
     v("size", size, "render size in pixels");
+    v("fov_deg", fov_deg, "vertical field of view of the renders' camera (degrees): the one "
+                          "ingest assumes for footage, so that perspective matches");
+    v("fill", fill, "fraction of the frame height the face spans when frontal");
     v("max_yaw_deg", max_yaw_deg, "largest head yaw of the renders (degrees)");
     v("radius_cm", radius_cm, "each landmark moves to a vertex at most this far (cm)");
     v("landmark_model", landmark_model, "dlib 68-point shape predictor (Debian libdlib-data)");
@@ -60,6 +65,8 @@ struct RigCalibrateOptions {
     if (size < 96 || size > 1024) { *why = "size must be in [96, 1024]"; return false; }
     if (!(max_yaw_deg >= 0.f && max_yaw_deg <= 60.f)) { *why = "max_yaw_deg must be in [0, 60]"; return false; }
     if (!(radius_cm > 0.f && radius_cm <= 10.f)) { *why = "radius_cm must be in (0, 10]"; return false; }
+    if (!(fov_deg > 5.f && fov_deg < 120.f)) { *why = "fov_deg must be in (5, 120)"; return false; }
+    if (!(fill > 0.1f && fill <= 1.f)) { *why = "fill must be in (0.1, 1]"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
     if (out.empty()) { *why = "out must name a file"; return false; }
     return true;
@@ -71,6 +78,8 @@ synth::ClipOptions CalibrationClip(const RigCalibrateOptions& o, int person) {
   synth::ClipOptions c;
   c.frames = o.frames;
   c.size = o.size;
+  c.fov_deg = o.fov_deg;
+  c.fill = o.fill;
   c.identity_seed = o.first_identity_seed + person;
   c.motion_seed = c.lighting_seed = c.background_seed = c.camera_seed = 9001 + person;
   c.yaw_sigma_deg = o.max_yaw_deg / 2.f;

@@ -111,19 +111,35 @@ void RunSynthCrops(const StageFlags& flags, AppState* state) {
   f.WriteStrings("/regions/names", clip.ReadStrings("/regions/names"));
   const auto colors = clip.ReadMatrix<float>("/regions/colors");
   f.WriteMatrix("/regions/colors", colors);
-  Image8 image(size, size, 3), warped(size, size, 3), segmentation(W, H, 3);
+  // Blocks of frames: a read and a write per dataset and block.
+  constexpr int64_t kBlock = 64;
+  const int64_t crop_bytes = 3LL * size * size, frame_bytes = 3LL * W * H;
+  std::vector<uint8_t> crops, warped, segmentation;
   Progress progress("synth crops", n);
-  for (int64_t k = 0; k < n; ++k) {
-    frames.ReadFrames<uint8_t>("/frames/crop", k, 1, image.data.data());
-    if (found[k]) {
-      clip.ReadFrames<uint8_t>("/frames/segmentation", source[k], 1, segmentation.data.data());
-      WarpNearest(segmentation.data.data(), W, H, &transform[6 * k], size, warped.data.data());
+  for (int64_t first = 0; first < n; first += kBlock) {
+    const int64_t count = std::min(kBlock, n - first);
+    crops.resize(count * crop_bytes);
+    warped.assign(count * crop_bytes, 0);
+    frames.ReadFrames<uint8_t>("/frames/crop", first, count, crops.data());
+    // The source frames of the block, in one read when they are consecutive.
+    const int64_t lo = source[first], hi = source[first + count - 1];
+    const bool consecutive = hi - lo == count - 1;
+    if (consecutive) {
+      segmentation.resize(count * frame_bytes);
+      clip.ReadFrames<uint8_t>("/frames/segmentation", lo, count, segmentation.data());
     } else {
-      std::fill(warped.data.begin(), warped.data.end(), 0);
+      segmentation.resize(frame_bytes);
     }
-    f.WriteFrames<uint8_t>("/frames/image", k, 1, image.data.data());
-    f.WriteFrames<uint8_t>("/frames/segmentation", k, 1, warped.data.data());
-    progress.Update(k + 1);
+    for (int64_t j = 0; j < count; ++j) {
+      const int64_t k = first + j;
+      if (!found[k]) continue;
+      const uint8_t* seg = segmentation.data() + (consecutive ? j * frame_bytes : 0);
+      if (!consecutive) clip.ReadFrames<uint8_t>("/frames/segmentation", source[k], 1, segmentation.data());
+      WarpNearest(seg, W, H, &transform[6 * k], size, warped.data() + j * crop_bytes);
+    }
+    f.WriteFrames<uint8_t>("/frames/image", first, count, crops.data());
+    f.WriteFrames<uint8_t>("/frames/segmentation", first, count, warped.data());
+    progress.Update(first + count);
   }
   progress.Finish();
   f.Commit();
