@@ -1,8 +1,10 @@
-// facecap person fit: the person's own rig from their footage (paper 000 Sec. 5.1): the
-// identity modes of the generic rig fitted, jointly with every chosen frame's pose
-// and expression, to the 68 landmarks ingest detected, then refined by inverse rendering of
-// the deepfake's segmentation translations (track/person_fit.h); the rig's shapes moved onto
-// the person by deformation transfer (assets/person_rig.h).
+// facecap person fit: the person's own rig from their footage (paper 000 Sec. 5.1). First the
+// identity modes of the generic rig are fitted, jointly with every chosen frame's pose and
+// expression, to the 68 landmarks ingest detected (the landmark phase: a baseline, and the
+// person's own landmark vertices); then, from the generic head or from that fit
+// (refine_from), refined by inverse rendering of the deepfake's segmentation translations
+// (track/person_fit.h). The rig's shapes are moved onto the person by deformation transfer
+// (assets/person_rig.h).
 //
 // Frames: every frame with a face gets a quick pose from its landmarks (spread across ranks);
 // `frames` of them are chosen for pose variety (farthest-point sampling over yaw and pitch,
@@ -88,8 +90,6 @@ struct PersonFitStageOptions {
     v("robust_cost", fit.robust_cost,
       "Cauchy scale of a frame's segmentation cost in the refinement, in medians over the "
       "frames: frames whose translation fits badly count less");
-    v("refine_landmark_weight", fit.refine_tracker.landmark_weight,
-      "landmark term beside the segmentation cost in the refinement (per squared pixel)");
     v("refine_weight_prior", fit.refine_tracker.weight_prior,
       "expression prior of the refinement's per-frame solves");
   }
@@ -134,14 +134,15 @@ std::vector<int64_t> ChooseForPoseVariety(const std::vector<Eigen::Vector2d>& po
   return chosen;
 }
 
-void PutPose(ByteWriter* w, const rig::RigidPose& p) {
-  const float v[8] = {p.pitch, p.yaw, p.roll, p.translation.x(), p.translation.y(),
-                      p.translation.z(), p.scale, 0.f};
-  w->PutArray(v, 8);
+// A pose as the 8 floats of a row of /person/frames/pose, and back.
+constexpr int kPoseRow = 8;
+void PoseToRow(const rig::RigidPose& p, float* row) {
+  const float v[kPoseRow] = {p.pitch, p.yaw, p.roll, p.translation.x(), p.translation.y(),
+                             p.translation.z(), p.scale, 0.f};
+  std::copy(v, v + kPoseRow, row);
 }
 
-rig::RigidPose GetPose(ByteReader* r) {
-  const std::vector<float> v = r->GetVector<float>();
+rig::RigidPose PoseFromRow(const float* v) {
   rig::RigidPose p;
   p.pitch = v[0];
   p.yaw = v[1];
@@ -150,6 +151,14 @@ rig::RigidPose GetPose(ByteReader* r) {
   p.scale = v[6];
   return p;
 }
+
+void PutPose(ByteWriter* w, const rig::RigidPose& p) {
+  float v[kPoseRow];
+  PoseToRow(p, v);
+  w->PutArray(v, kPoseRow);
+}
+
+rig::RigidPose GetPose(ByteReader* r) { return PoseFromRow(r->GetVector<float>().data()); }
 
 // Fault injection for the restart tests: FACECAP_FAULT_AFTER_ROUNDS=r makes rank 0 send itself
 // SIGTERM (or SIGKILL with FACECAP_FAULT_SIGNAL=KILL) once round r is checkpointed. Unset in
@@ -249,7 +258,7 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
       identity = Eigen::Map<const Eigen::VectorXd>(id.data(), K);
       const std::vector<double> lo = f.ReadVector<double>("/person/landmarks_only_identity", K);
       landmarks_only = Eigen::Map<const Eigen::VectorXd>(lo.data(), K);
-      state_pose = f.Read<float>("/person/frames/pose", {static_cast<int64_t>(chosen.size()), 8});
+      state_pose = f.Read<float>("/person/frames/pose", {static_cast<int64_t>(chosen.size()), kPoseRow});
       state_weights = f.Read<float>("/person/frames/weights", {static_cast<int64_t>(chosen.size()), S});
       if (f.Exists("/person/landmarks")) person_landmarks = f.ReadVector<int32_t>("/person/landmarks", 68);
       FC_INFO("person fit: continuing {}: {} of {} rounds done", io::H5File::PartialPath(o.out),
@@ -305,11 +314,8 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
       }
       for (int64_t k : ChooseForPoseVariety(angles, o.count)) {
         chosen.push_back(with_face[k]);
-        ByteWriter w;
-        PutPose(&w, poses[k]);
-        ByteReader r(w.bytes());
-        const std::vector<float> v = r.GetVector<float>();
-        state_pose.insert(state_pose.end(), v.begin(), v.end());
+        state_pose.resize(state_pose.size() + kPoseRow);
+        PoseToRow(poses[k], &state_pose[state_pose.size() - kPoseRow]);
       }
       state_weights.assign(chosen.size() * S, 0.f);
       FC_INFO("person fit: {} of {} frames with a face chosen for pose variety", chosen.size(),
@@ -332,12 +338,7 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
       render::CropView view;
       track::PersonFrame frame;
       frame.target = make_target(chosen[k], refining, &view);
-      const float* p = &state_pose[8 * k];
-      frame.pose.pitch = p[0];
-      frame.pose.yaw = p[1];
-      frame.pose.roll = p[2];
-      frame.pose.translation = Eigen::Vector3f(p[3], p[4], p[5]);
-      frame.pose.scale = p[6];
+      frame.pose = PoseFromRow(&state_pose[kPoseRow * k]);
       frame.weights = Eigen::Map<const Eigen::VectorXf>(&state_weights[S * k], S);
       const track::PersonFrameContribution c = fitter.SolveFrame(identity, refining, &frame);
       ByteWriter w;
@@ -353,10 +354,7 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
       for (size_t i = 0; i < done.size(); ++i) {
         const int64_t k = done[i];
         ByteReader reader(r[i]);
-        const rig::RigidPose p = GetPose(&reader);
-        const float v[8] = {p.pitch, p.yaw, p.roll, p.translation.x(), p.translation.y(),
-                            p.translation.z(), p.scale, 0.f};
-        std::copy(v, v + 8, state_pose.begin() + 8 * k);
+        PoseToRow(GetPose(&reader), &state_pose[kPoseRow * k]);
         const std::vector<float> w = reader.GetVector<float>();
         std::copy(w.begin(), w.end(), state_weights.begin() + S * k);
         track::PersonFrameContribution& c = contributions[k];
@@ -380,13 +378,7 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
         const rig::RigEvaluator evaluator(fitted);
         std::vector<render::CalibrationView> views(n);
         for (int64_t k = 0; k < n; ++k) {
-          const float* p = &state_pose[8 * k];
-          rig::RigidPose pose;
-          pose.pitch = p[0];
-          pose.yaw = p[1];
-          pose.roll = p[2];
-          pose.translation = Eigen::Vector3f(p[3], p[4], p[5]);
-          pose.scale = p[6];
+          const rig::RigidPose pose = PoseFromRow(&state_pose[kPoseRow * k]);
           const Eigen::VectorXf w = Eigen::Map<const Eigen::VectorXf>(&state_weights[S * k], S);
           evaluator.EvaluatePosed(pose, w, &views[k].posed);
           views[k].camera = frames.CropCamera(chosen[k], size).camera;
@@ -427,7 +419,7 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
         f.SetAttribute("/person/frames/index", "meaning",
                        std::string("rows of the ingest output chosen for pose variety"));
       }
-      f.Write<float>("/person/frames/pose", {n, 8}, state_pose.data());
+      f.Write<float>("/person/frames/pose", {n, kPoseRow}, state_pose.data());
       f.SetAttribute("/person/frames/pose", "columns",
                      std::string("pitch, yaw, roll (rad), tx, ty, tz (cm), scale, 0: in each "
                                  "frame's crop camera"));
@@ -497,11 +489,12 @@ void RegisterPerson(CLI::App* app, AppState* state) {
   person->require_subcommand(1);
   AddStage<PersonFitStageOptions>(
       person, state, "fit", "person.fit", "person fit",
-      "The person's neutral geometry from many frames (paper 000 Sec. 5.1): identity modes "
-      "fitted jointly with each chosen frame's pose and expression to ingest's 68 "
-      "landmarks, refined by inverse rendering of the segmentation translations; the rig's "
-      "shapes moved onto the person by deformation transfer. Frames spread across ranks, the "
-      "same result for any rank count, resumable",
+      "The person's neutral geometry from many frames (paper 000 Sec. 5.1): the generic rig's "
+      "identity modes fitted by inverse rendering of the segmentation translations, jointly "
+      "with the pose and expression of frames chosen for pose variety (a fit to ingest's 68 "
+      "landmarks kept beside as a baseline, and the person's own landmark vertices); the "
+      "rig's shapes moved onto the person by deformation transfer. Frames spread across "
+      "ranks, the same result for any rank count, resumable",
       RunPersonFit);
 }
 
