@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <iterator>
+#include <limits>
 #include <sstream>
 
 #include <toml++/toml.h>
@@ -107,6 +109,11 @@ bool Config::Has(const std::string& table, const std::string& key) const {
   return t && t->contains(key) && !(*t)[key].is_table();
 }
 
+bool Config::IsArray(const std::string& table, const std::string& key) const {
+  const toml::table* t = FindTable(impl_->root, table);
+  return t && t->contains(key) && (*t)[key].is_array();
+}
+
 std::vector<std::string> Config::Keys(const std::string& table) const {
   std::vector<std::string> keys;
   const toml::table* t = FindTable(impl_->root, table);
@@ -177,12 +184,30 @@ const toml::node& Node(const toml::table& root, const std::string& origin,
   throw InvalidInputError(os.str());
 }
 
+// Every number option is finite: NaN and infinity pass no range check, so they are refused
+// here for job files and --set alike, as the flags refuse them.
 double NumberOf(const toml::node& n, const std::string& origin, const std::string& table,
                 const std::string& key) {
-  if (auto v = n.value_exact<double>()) return *v;
+  if (auto v = n.value_exact<double>()) {
+    if (!std::isfinite(*v)) {
+      throw InvalidInputError(Where(origin, table, key) + " must be a finite number, got " +
+                              (std::isnan(*v) ? "nan" : "infinity"));
+    }
+    return *v;
+  }
   if (auto v = n.value_exact<int64_t>()) return static_cast<double>(*v);
   TypeError(origin, table, key, "a number", n);
 }
+
+float FloatOf(const toml::node& n, const std::string& origin, const std::string& table,
+              const std::string& key) {
+  const double v = NumberOf(n, origin, table, key);
+  if (std::abs(v) > std::numeric_limits<float>::max()) {
+    throw InvalidInputError(Where(origin, table, key) + " is out of the 32-bit float range");
+  }
+  return static_cast<float>(v);
+}
+
 
 int64_t IntegerOf(const toml::node& n, const std::string& origin, const std::string& table,
                   const std::string& key) {
@@ -204,13 +229,22 @@ void Config::Get(const std::string& table, const std::string& key, int64_t* valu
   *value = IntegerOf(Node(impl_->root, origin, table, key), origin, table, key);
 }
 
-void Config::Get(const std::string& table, const std::string& key, int* value) const {
-  const std::string origin = OriginOf(table, key);
-  const int64_t v = IntegerOf(Node(impl_->root, origin, table, key), origin, table, key);
+namespace {
+
+int Int32Of(const toml::node& n, const std::string& origin, const std::string& table,
+            const std::string& key) {
+  const int64_t v = IntegerOf(n, origin, table, key);
   if (v < INT32_MIN || v > INT32_MAX) {
     throw InvalidInputError(Where(origin, table, key) + " is out of the 32-bit integer range");
   }
-  *value = static_cast<int>(v);
+  return static_cast<int>(v);
+}
+
+}  // namespace
+
+void Config::Get(const std::string& table, const std::string& key, int* value) const {
+  const std::string origin = OriginOf(table, key);
+  *value = Int32Of(Node(impl_->root, origin, table, key), origin, table, key);
 }
 
 void Config::Get(const std::string& table, const std::string& key, double* value) const {
@@ -220,7 +254,7 @@ void Config::Get(const std::string& table, const std::string& key, double* value
 
 void Config::Get(const std::string& table, const std::string& key, float* value) const {
   const std::string origin = OriginOf(table, key);
-  *value = static_cast<float>(NumberOf(Node(impl_->root, origin, table, key), origin, table, key));
+  *value = FloatOf(Node(impl_->root, origin, table, key), origin, table, key);
 }
 
 void Config::Get(const std::string& table, const std::string& key, std::string* value) const {
@@ -246,7 +280,7 @@ void GetArray(const toml::node& n, const std::string& origin, const std::string&
 void Config::Get(const std::string& table, const std::string& key, std::vector<int>* value) const {
   const std::string origin = OriginOf(table, key);
   GetArray(Node(impl_->root, origin, table, key), origin, table, key, value,
-           [&](const toml::node& e) { return static_cast<int>(IntegerOf(e, origin, table, key)); });
+           [&](const toml::node& e) { return Int32Of(e, origin, table, key); });
 }
 
 void Config::Get(const std::string& table, const std::string& key,
@@ -254,7 +288,7 @@ void Config::Get(const std::string& table, const std::string& key,
   const std::string origin = OriginOf(table, key);
   GetArray(Node(impl_->root, origin, table, key), origin, table, key, value,
            [&](const toml::node& e) {
-             return static_cast<float>(NumberOf(e, origin, table, key));
+             return FloatOf(e, origin, table, key);
            });
 }
 

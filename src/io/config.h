@@ -55,6 +55,8 @@ class Config {
   // Tables are dotted paths: "synth.samples".
   bool HasTable(const std::string& table) const;
   bool Has(const std::string& table, const std::string& key) const;
+  // Whether the value at table.key is an array (false when absent).
+  bool IsArray(const std::string& table, const std::string& key) const;
   // The keys of a table that hold values (not sub-tables), in file order.
   std::vector<std::string> Keys(const std::string& table) const;
   // Sub-table names of a table ("" for the root).

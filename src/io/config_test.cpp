@@ -78,6 +78,32 @@ TEST(Config, OverridesFromTextAndAssignments) {
 
 // A list of strings may be given as one string (a job file written when the option took one
 // file keeps working); other element types are still named.
+// NaN passes every range check written as `x < lo || x > hi`: job files and --set refuse
+// non-finite numbers as the flags do, naming where the value came from.
+TEST(Config, NonFiniteNumbersAreRefusedFromJobFilesAndSet) {
+  for (const char* value : {"nan", "-nan", "inf", "-inf", "+inf"}) {
+    Config job = Config::Parse(std::string("[synth.samples]\nyaw_max_deg = ") + value + "\n",
+                               "job.toml");
+    try {
+      ResolveOptions<ExampleOptions>(job, "synth.samples");
+      ADD_FAILURE() << value << " was accepted";
+    } catch (const InvalidInputError& e) {
+      EXPECT_NE(std::string(e.what()).find("job.toml"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("must be a finite number"), std::string::npos)
+          << e.what();
+    }
+    Config set;
+    set.SetAssignment(std::string("synth.samples.yaw_max_deg=") + value);
+    EXPECT_THROW(ResolveOptions<ExampleOptions>(set, "synth.samples"), InvalidInputError)
+        << value;
+  }
+  // Finite doubles beyond the float range would become infinity.
+  Config big = Config::Parse("[synth.samples]\nyaw_max_deg = 1e39\n", "job.toml");
+  EXPECT_THROW(ResolveOptions<ExampleOptions>(big, "synth.samples"), InvalidInputError);
+  Config list = Config::Parse("[synth.samples]\nsizes = [64, 4294967360]\n", "job.toml");
+  EXPECT_THROW(ResolveOptions<ExampleOptions>(list, "synth.samples"), InvalidInputError);
+}
+
 TEST(Config, OneStringIsAListOfOne) {
   Config c = Config::Parse("[t]\nfiles = 'a.h5'\nmore = ['b.h5', 'c.h5']\nbad = [1]\n", "job.toml");
   std::vector<std::string> files, more, bad;

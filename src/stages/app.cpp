@@ -10,6 +10,23 @@
 
 namespace facecap::stages {
 
+void RegisterAll(CLI::App* app, AppState* state) {
+  RegisterVersion(app, state);
+  RegisterRig(app, state);
+  RegisterRender(app, state);
+  RegisterSynth(app, state);
+  RegisterIngest(app, state);
+  RegisterCurate(app, state);
+  RegisterDeepfake(app, state);
+  RegisterExport(app, state);
+  RegisterScans(app, state);
+  RegisterBlendshapes(app, state);
+  RegisterTrack(app, state);
+  RegisterPerson(app, state);
+  RegisterEval(app, state);
+  RegisterRun(app, state);
+}
+
 int RunApp(int argc, char** argv) {
   dist::Comm::Init(&argc, &argv);
   AppState state;
@@ -27,20 +44,7 @@ int RunApp(int argc, char** argv) {
       "continue)."};
   app.require_subcommand(1);
   app.fallthrough();
-  RegisterVersion(&app, &state);
-  RegisterRig(&app, &state);
-  RegisterRender(&app, &state);
-  RegisterSynth(&app, &state);
-  RegisterIngest(&app, &state);
-  RegisterCurate(&app, &state);
-  RegisterDeepfake(&app, &state);
-  RegisterExport(&app, &state);
-  RegisterScans(&app, &state);
-  RegisterBlendshapes(&app, &state);
-  RegisterTrack(&app, &state);
-  RegisterPerson(&app, &state);
-  RegisterEval(&app, &state);
-  RegisterRun(&app, &state);
+  RegisterAll(&app, &state);
 
   int code = kExitOk;
   try {

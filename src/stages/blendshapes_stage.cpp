@@ -870,15 +870,19 @@ void RegisterBlendshapes(CLI::App* app, AppState* state) {
       bs, state, "train", "blendshapes.train", "blendshapes train",
       "Train the blendshape generator (Estimation Stage, then Tuning Stage with the blending weight "
       "predictor) on a scan database; data-parallel with gradient allreduce, resumable",
+      PathKeys{{"scans"}, {{"out", OutputKind::kHdf5}}},
       RunBlendshapesTrain);
   AddStage<BlendshapesBaselinesOptions>(
       bs, state, "baselines", "blendshapes.baselines", "blendshapes baselines",
       "Baseline shapes for every person of a scan database: the template moved by deformation "
       "transfer, and example-based facial rigging on the person's scans",
+      PathKeys{{"scans"}, {{"out", OutputKind::kHdf5}}},
       RunBlendshapesBaselines);
   AddStage<BlendshapesInferOptions>(
       bs, state, "infer", "blendshapes.infer", "blendshapes infer",
-      "One neutral mesh to a personalized rig.h5", RunBlendshapesInfer);
+      "One neutral mesh to a personalized rig.h5",
+      PathKeys{{"model", "neutral"}, {{"out", OutputKind::kHdf5}}},
+      RunBlendshapesInfer);
   CLI::App* eval = nullptr;
   try {
     eval = app->get_subcommand("eval");
@@ -890,6 +894,7 @@ void RegisterBlendshapes(CLI::App* app, AppState* state) {
       eval, state, "blendshapes", "eval.blendshapes", "eval blendshapes",
       "Reconstruction errors of template, example-based and generated blendshapes on training and "
       "held-out people (paper 001 Table 2), and their distance to the true personal shapes",
+      PathKeys{{"scans", "baselines", "model"}, {{"markdown", OutputKind::kText}, {"shapes", OutputKind::kHdf5}}},
       RunEvalBlendshapes);
 }
 

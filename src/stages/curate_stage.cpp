@@ -246,14 +246,16 @@ Curation ReadCuration(const std::string& path) {
   const io::H5File f = io::H5File::OpenRead(path);
   Curation c;
   for (const std::string& name : f.ReadStrings("/tree/levels")) c.kinds.push_back(curate::ParseFeatureKind(name));
+  if (c.kinds.empty()) throw FileIOError(path + ": /tree/levels is empty");
   c.frame_of_item = f.ReadVector<int64_t>("/features/frame");
   c.frames_file = f.GetStringAttribute("/", "frames_file");
   std::vector<curate::ClusterLevel> levels(c.kinds.size() - 1);
   for (size_t l = 0; l < levels.size(); ++l) {
     const std::string g = "/tree/level_" + std::to_string(l);
     levels[l].centers = f.ReadMatrix<float>(g + "/centers", -1, curate::FeatureDims(c.kinds[l]));
-    levels[l].parent = f.ReadVector<int32_t>(g + "/parent");
-    levels[l].first_child = f.ReadVector<int32_t>(g + "/first_child");
+    const int64_t nodes = levels[l].centers.rows();
+    levels[l].parent = f.ReadVector<int32_t>(g + "/parent", nodes);
+    levels[l].first_child = f.ReadVector<int32_t>(g + "/first_child", nodes + 1);
   }
   const std::string flat = std::string("/features/") + curate::FeatureName(c.kinds.back());
   FeatureMatrix flat_features = f.ReadMatrix<float>(flat, static_cast<int64_t>(c.frame_of_item.size()),
@@ -380,7 +382,8 @@ void RunCurateQuery(const StageFlags& flags, AppState* state) {
     }
     FC_INFO("curate query: picks widened to ({}) for {} unique frames", used, unique.size());
   }
-  const std::vector<int64_t> source_index = frames.ReadVector<int64_t>("/frames/source_index");
+  const std::vector<int64_t> source_index =
+      frames.ReadVector<int64_t>("/frames/source_index", frames.NumFrames("/frames/crop"));
   std::vector<int64_t> unique_source;
   for (int64_t row : unique) unique_source.push_back(source_index[row]);
 
@@ -440,11 +443,13 @@ void RegisterCurate(CLI::App* app, AppState* state) {
       "Features f_pose, f_lighting, f_expression of every face in an ingest output and the tree "
       "of k-means levels over them (default: 9 pose clusters, 3 lighting clusters each, flat "
       "expression)",
+      PathKeys{{"frames"}, {{"out", OutputKind::kHdf5}}},
       RunCurateBuild);
   AddStage<CurateQueryOptions>(
       curate, state, "query", "curate.query", "curate query",
       "Frames that match a query (a frame, an image, a folder of renders, or another ingest "
       "output) with q_1..q_n picks per level; writes their indices and a contact sheet",
+      PathKeys{{"curation", "frames", "image", "renders", "query_frames", "landmark_model"}, {{"out", OutputKind::kHdf5}, {"sheet", OutputKind::kImage}}},
       RunCurateQuery);
 }
 

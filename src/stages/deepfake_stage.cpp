@@ -50,6 +50,13 @@ namespace {
 const char* const kImageDatasets[] = {"/frames/image", "/frames/crop", "/samples/segmentation"};
 
 // [deepfake.train]
+// OUT without its .h5, followed by suffix.
+std::string WithSuffix(const std::string& path, const std::string& suffix) {
+  std::string stem = path;
+  if (stem.size() > 3 && stem.compare(stem.size() - 3, 3, ".h5") == 0) stem.resize(stem.size() - 3);
+  return stem + suffix;
+}
+
 struct DeepfakeTrainOptions {
   std::string a = "samples.h5";                  // domain A: synthetic segmentation renders
   std::string a_dataset = "/samples/segmentation";  // image dataset of A [N, S, S, 3] uint8
@@ -134,6 +141,13 @@ struct DeepfakeTrainOptions {
     network.Visit(v);
     loss.Visit(v);
     augment.Visit(v);
+  }
+  void DerivedOutputs(std::vector<NamedPath>* outputs) const {
+    outputs->push_back({"out + .checkpoint", out + ".checkpoint", OutputKind::kText});
+    if (preview.empty()) {
+      outputs->push_back({"preview (out with _preview.png)", WithSuffix(out, "_preview.png"),
+                          OutputKind::kImage});
+    }
   }
   bool Check(std::string* why) const {
     if (steps < 0) { *why = "steps must be >= 0"; return false; }
@@ -228,6 +242,12 @@ struct DeepfakeInferOptions {
     v("overlay_count", overlay_count, "frames in the overlay PNG");
     v("overlay_scale", overlay_scale, "magnification of the overlay PNG");
   }
+  void DerivedOutputs(std::vector<NamedPath>* outputs) const {
+    if (overlay == "none") return;
+    outputs->push_back({overlay.empty() ? "overlay (out with _contours.png)" : "overlay",
+                        overlay.empty() ? WithSuffix(out, "_contours.png") : overlay,
+                        OutputKind::kImage});
+  }
   bool Check(std::string* why) const {
     if (decoder != "A" && decoder != "B") { *why = "decoder must be A or B"; return false; }
     if (batch < 1) { *why = "batch must be positive"; return false; }
@@ -242,12 +262,6 @@ struct DeepfakeInferOptions {
     return true;
   }
 };
-
-std::string WithSuffix(const std::string& path, const std::string& suffix) {
-  std::string stem = path;
-  if (stem.size() > 3 && stem.compare(stem.size() - 3, 3, ".h5") == 0) stem.resize(stem.size() - 3);
-  return stem + suffix;
-}
 
 std::string FindImageDataset(const io::H5File& f, const std::string& requested) {
   if (!requested.empty()) {
@@ -1078,11 +1092,13 @@ void RegisterDeepfake(CLI::App* app, AppState* state) {
       "Train E, D_A, D_B with the discriminators G_image and G_latent on A (synthetic renders) and "
       "B (real frames), data-parallel across ranks with gradient allreduce; checkpoints, resumes, "
       "progress lines with each loss, preview grid",
+      PathKeys{{"a", "b", "paired"}, {{"out", OutputKind::kHdf5}, {"preview", OutputKind::kImage}}},
       RunDeepfakeTrain);
   AddStage<DeepfakeInferOptions>(
       deepfake, state, "infer", "deepfake.infer", "deepfake infer",
       "Translate frames with D(E(I)), store the codes E(I) and E(D(E(I))), and the region borders "
       "of each translation as polylines with an overlay PNG; spread across ranks, resumable",
+      PathKeys{{"model", "frames", "camera"}, {{"out", OutputKind::kHdf5}}},
       RunDeepfakeInfer);
 }
 

@@ -144,7 +144,7 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
     }
   }
   const auto tw = truth.ReadMatrix<float>(group + "/weights");
-  truth.CheckShape(group + "/pose", {truth_frames, -1});
+  truth.CheckShape(group + "/pose", {truth_frames, 3});
   const auto tp = truth.ReadMatrix<float>(group + "/pose");
   Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> tt;
   if (truth.Exists(group + "/translation")) {
@@ -506,6 +506,7 @@ void RegisterEval(CLI::App* app, AppState* state) {
       "weight MAE (overall, over the truth's active weights, per shape), expression vertex "
       "error (rigid pose and identity removed), landmark NME and vertex error over the "
       "inter-ocular distance (outer eye corners 36, 45), seconds per frame; one JSON object",
+      PathKeys{{"truth", "track", "rig", "truth_rig"}, {{"out", OutputKind::kText}}},
       RunEvalTrack);
   AddStage<EvalLandmarksOptions>(
       eval, state, "landmarks", "eval.landmarks", "eval landmarks",
@@ -513,12 +514,14 @@ void RegisterEval(CLI::App* app, AppState* state) {
       "detected outer-eye-corner distance, on all frames with a face and on the frames held "
       "out of deepfake training apart; one JSON object (score against an independent "
       "landmarker with export landmarks and analysis/compare_landmarks.py)",
+      PathKeys{{"frames", "track", "rig"}, {{"out", OutputKind::kText}}},
       RunEvalLandmarks);
   AddStage<EvalPersonOptions>(
       eval, state, "person", "eval.person", "eval person",
       "The person fit's neutral against the true person of a synthetic clip: vertex RMS after a "
       "similarity alignment, in mm and over the inter-ocular distance, beside the generic head's "
       "and the landmarks-only fit's; one JSON object",
+      PathKeys{{"truth", "person"}, {{"out", OutputKind::kText}}},
       RunEvalPerson);
 }
 

@@ -541,23 +541,27 @@ void RegisterExport(CLI::App* app, AppState* state) {
       exp, state, "livelink", "export.livelink", "export livelink",
       "Live Link Face CSV: Timecode, BlendShapeCount, then 61 values per frame (the 52 ARKit "
       "shapes matched by name, head yaw/pitch/roll, eye yaw/pitch/roll)",
+      PathKeys{{"track"}, {{"out", OutputKind::kCsv}}},
       RunExportLiveLink);
   AddStage<ExportGltfOptions>(
       exp, state, "gltf", "export.gltf", "export gltf",
       "glTF (.glb/.gltf) of the rig with one morph target per shape and the tracked weights as "
       "a morph-target animation",
+      PathKeys{{"track", "rig"}, {{"out", OutputKind::kGltf}}},
       RunExportGltf);
   AddStage<ExportOverlayOptions>(
       exp, state, "overlay", "export.overlay", "export overlay",
       "mp4 of the tracked rig drawn over the frames it was tracked on (the source video's own "
       "frames for a track of footage): segmentation colours blended in, region borders and "
       "silhouette in white; optionally a contact sheet PNG",
+      PathKeys{{"track", "rig", "frames"}, {{"out", OutputKind::kVideo}, {"sheet", OutputKind::kImage}}},
       RunExportOverlay);
   AddStage<ExportLandmarksOptions>(
       exp, state, "landmarks", "export.landmarks", "export landmarks",
       "CSV of the tracked rig's 68 landmarks (iBUG order) in the source video's pixels, one row "
       "per ingested frame (frames without a face: empty coordinates), so that other tools can "
       "score the tracking",
+      PathKeys{{"track", "rig", "frames"}, {{"out", OutputKind::kCsv}}},
       RunExportLandmarks);
 }
 

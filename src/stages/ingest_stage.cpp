@@ -126,7 +126,8 @@ IngestSummary ReadIngestSummary(const std::string& path) {
   io::H5File f = io::H5File::OpenRead(path);
   IngestSummary s;
   const std::vector<int32_t> status = f.ReadVector<int32_t>("/frames/status");
-  const std::vector<int32_t> flags = f.ReadVector<int32_t>("/frames/input_flags");
+  const std::vector<int32_t> flags =
+      f.ReadVector<int32_t>("/frames/input_flags", static_cast<int64_t>(status.size()));
   s.frames = static_cast<int64_t>(status.size());
   for (int32_t v : status) {
     s.found += v == kFrameFound;
@@ -466,7 +467,8 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
           {"num_downscaled", summary.downscaled}}) {
       f.SetAttribute("/frames", name, value);
     }
-    f.Commit();
+    // Without a face the output is no stage's input: it stays under its .partial name.
+    if (summary.found > 0) f.Commit();
   });
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (comm.IsMainRank()) {
@@ -479,7 +481,8 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
   comm.Broadcast(&found, sizeof(found));
   if (found == 0) {
     throw FileIOError(input + ": no face found in any of the " + std::to_string(n) +
-                      " frames (the per-frame accounting is in " + o.out + ", /frames/status)");
+                      " frames (the per-frame accounting is in " + io::H5File::PartialPath(o.out) +
+                      ", /frames/status; nothing was written to " + o.out + ")");
   }
   return summary;
 }
@@ -502,6 +505,7 @@ void RegisterIngest(CLI::App* app, AppState* state) {
       "with dlib, one subject followed, 68 landmarks, similarity-aligned crops, source file, "
       "frame index and timecode per frame; spread across ranks, identical for any rank count, "
       "resumable",
+      PathKeys{{"video", "images", "landmark_model"}, {{"out", OutputKind::kHdf5}}},
       RunIngestCommand);
 }
 

@@ -495,6 +495,7 @@ void RegisterPerson(CLI::App* app, AppState* state) {
       "landmarks kept beside as a baseline, and the person's own landmark vertices); the "
       "rig's shapes moved onto the person by deformation transfer. Frames spread across "
       "ranks, the same result for any rank count, resumable",
+      PathKeys{{"rig", "frames", "translations"}, {{"out", OutputKind::kHdf5}}},
       RunPersonFit);
 }
 

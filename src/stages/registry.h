@@ -5,6 +5,7 @@
 
 #include <functional>
 #include <list>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -14,6 +15,7 @@
 
 #include "dist/comm.h"
 #include "stages/cli.h"
+#include "stages/stage_paths.h"
 
 namespace facecap::stages {
 
@@ -21,6 +23,53 @@ template <typename T, typename = void>
 struct HasOut : std::false_type {};
 template <typename T>
 struct HasOut<T, std::void_t<decltype(std::declval<T>().out)>> : std::true_type {};
+
+// Options may name files they write beside their options (OUT.checkpoint, a preview):
+//   void DerivedOutputs(std::vector<NamedPath>* outputs) const;
+template <typename T, typename = void>
+struct HasDerivedOutputs : std::false_type {};
+template <typename T>
+struct HasDerivedOutputs<T, std::void_t<decltype(std::declval<const T&>().DerivedOutputs(
+                                std::declval<std::vector<NamedPath>*>()))>> : std::true_type {};
+
+// The files named by `options` under `keys`: std::logic_error when a key is not an option
+// of the struct or not a text option (a mistake in the stage's registration).
+template <typename Options>
+StagePaths PathsOf(const Options& options, const std::string& table, const PathKeys& keys) {
+  StagePaths paths;
+  paths.table = table;
+  auto take = [&](const std::string& key, std::vector<std::string>* values) {
+    bool found = false;
+    const_cast<Options&>(options).Visit([&](const char* k, auto& field, const char*) {
+      using Field = std::decay_t<decltype(field)>;
+      if (key != k) return;
+      found = true;
+      if constexpr (std::is_same_v<Field, std::string>) {
+        values->push_back(field);
+      } else if constexpr (std::is_same_v<Field, std::vector<std::string>>) {
+        values->insert(values->end(), field.begin(), field.end());
+      } else {
+        throw std::logic_error("[" + table + "] " + key + " is not a text option");
+      }
+    });
+    if (!found) throw std::logic_error("[" + table + "] has no option " + key);
+  };
+  // An option not used (an empty text or list) is kept as an empty path: the keys stay listed.
+  for (const std::string& key : keys.inputs) {
+    std::vector<std::string> values;
+    take(key, &values);
+    if (values.empty()) values.emplace_back();
+    for (const std::string& v : values) paths.inputs.push_back({key, v});
+  }
+  for (const OutputKey& output : keys.outputs) {
+    std::vector<std::string> values;
+    take(output.key, &values);
+    if (values.empty()) values.emplace_back();
+    for (const std::string& v : values) paths.outputs.push_back({output.key, v, output.kind});
+  }
+  if constexpr (HasDerivedOutputs<Options>::value) options.DerivedOutputs(&paths.outputs);
+  return paths;
+}
 
 // What `facecap run` needs to know of a stage: how to run it from a job file, and how to
 // resolve its table to the configuration text and output path that its output records.
@@ -35,6 +84,9 @@ struct StageSpec {
   // Every text option of the stage read from `table` (file names among them): what
   // `facecap run` checks for inputs newer than the output.
   std::function<std::vector<std::string>(const io::Config&, const std::string& table)> texts;
+  // The files the stage reads and writes with the options of `table`.
+  std::function<StagePaths(const io::Config&, const std::string& table)> paths;
+  PathKeys path_keys;  // the options that name them
 };
 
 // Collects the text (std::string) options of an options struct through its Visit.
@@ -61,21 +113,33 @@ struct AppState {
 };
 
 // Adds a subcommand for a stage whose options are `Options` (table `table`), runnable by
-// `facecap run`: flags from the options, --job and --set, and the callback.
+// `facecap run`: flags from the options, --job and --set, and the callback. `paths` names the
+// options that are the stage's input and output files: they are checked (CheckStagePaths)
+// before the stage starts.
 template <typename Options>
 CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
                    const std::string& table, const std::string& command,
-                   const std::string& description,
+                   const std::string& description, const PathKeys& paths,
                    std::function<void(const StageFlags&, AppState*)> run) {
+  PathsOf(Options(), table, paths);  // every key named is a text option of Options
   StageFlags* flags = state->NewFlags();
   CLI::App* sub = parent->add_subcommand(name, description);
   AddStageFlags<Options>(sub, table, flags);
-  sub->callback([=] { run(*flags, state); });
+  // The files are checked before the option values, so that an output naming an input is
+  // reported as such, whatever else is wrong with it.
+  auto checked_run = [=](const StageFlags& f) {
+    Options options;
+    io::LoadOptions(BuildConfig(f), f.table, &options);
+    CheckStagePaths(PathsOf(options, f.table, paths));
+    run(f, state);
+  };
+  sub->callback([=] { checked_run(*flags); });
   state->job_tables.push_back(table);
   StageSpec spec;
   spec.table = table;
   spec.command = command;
-  spec.run = [=](const StageFlags& f) { run(f, state); };
+  spec.run = checked_run;
+  spec.path_keys = paths;
   spec.resolve = [](const io::Config& config, const std::string& instance) {
     Options options = io::ResolveOptions<Options>(config, instance);
     io::Config resolved;
@@ -89,6 +153,9 @@ CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
     std::vector<std::string> texts;
     options.Visit(TextOptionCollector{&texts});
     return texts;
+  };
+  spec.paths = [paths](const io::Config& config, const std::string& instance) {
+    return PathsOf(io::ResolveOptions<Options>(config, instance), instance, paths);
   };
   state->stages.push_back(spec);
   return sub;

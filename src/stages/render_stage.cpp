@@ -311,6 +311,7 @@ void RegisterRender(CLI::App* app, AppState* state) {
       app, state, "render", "render", "render",
       "Render a rig at a pose and shape weights (segmentation, shaded, UV or depth) to PNG/EXR, "
       "or with --sheet a contact sheet of the neutral and expressions",
+      PathKeys{{"rig"}, {{"out", OutputKind::kImage}, {"mesh_out", OutputKind::kMesh}}},
       RunRender);
 }
 

@@ -217,6 +217,7 @@ void RegisterRigCalibrate(CLI::App* rig, AppState* state) {
       "Place the rig's 68 landmark vertices where dlib's detector finds the iBUG points on "
       "renders of people made of the rig (poses, expressions, lighting), so that fits to dlib's "
       "landmarks on footage measure the face, not the difference of conventions",
+      PathKeys{{"rig", "landmark_model"}, {{"out", OutputKind::kHdf5}}},
       RunRigCalibrate);
 }
 

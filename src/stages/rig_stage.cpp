@@ -152,14 +152,18 @@ void RegisterRig(CLI::App* app, AppState* state) {
       "Generate the procedural demo head: a closed mesh with eyes, eyelids, lips and a mouth "
       "opening, 12+ segmentation regions, the 68 iBUG landmarks, the 52 ARKit shapes (jaw "
       "shapes through jaw skinning) and identity modes",
+      PathKeys{{}, {{"out", OutputKind::kHdf5}}},
       RunRigDemo);
   AddStage<RigImportOptions>(
       rig, state, "import", "rig.import", "rig import",
       "Import a rig from an OBJ folder (neutral.obj + <shape>.obj) or a glTF file with morph "
       "targets",
+      PathKeys{{"obj_dir", "gltf"}, {{"out", OutputKind::kHdf5}}},
       RunRigImport);
   AddStage<RigExportOptions>(rig, state, "export", "rig.export", "rig export",
-                             "Export a rig to OBJ files and/or glTF", RunRigExport);
+                             "Export a rig to OBJ files and/or glTF",
+      PathKeys{{"rig"}, {{"obj_dir", OutputKind::kFolder}, {"gltf", OutputKind::kGltf}}},
+      RunRigExport);
   RegisterRigCalibrate(rig, state);
 }
 

@@ -94,6 +94,10 @@ void RunJob(const RunFlags& flags, AppState* state) {
   // Which stages: [run] stages = [...] in that order, else every stage table present.
   std::vector<std::string> tables;
   if (config.Has("run", "stages")) {
+    if (!config.IsArray("run", "stages")) {
+      throw InvalidInputError(flags.job + ": [run] stages must be an array of stage tables, "
+                              "e.g. stages = [\"rig.demo\", \"synth.samples\"]");
+    }
     config.Get("run", "stages", &tables);
   } else {
     for (const StageSpec& spec : state->stages) {
@@ -122,6 +126,12 @@ void RunJob(const RunFlags& flags, AppState* state) {
                                 "stage again with an instance table such as [" + table + "-2]");
       }
     }
+    // Without its table a stage would run on built-in defaults in the current folder.
+    if (!config.HasTable(table)) {
+      throw InvalidInputError(flags.job + ": [run] stages names '" + table + "', but the job "
+                              "has no [" + table + "] table; add the table (an empty one "
+                              "runs the stage on its defaults) or remove the stage");
+    }
     plan.push_back({found, table});
     if (table != found->table) job_tables.push_back(table);
   }
@@ -134,7 +144,14 @@ void RunJob(const RunFlags& flags, AppState* state) {
   }
   // Every stage's options are read and range-checked before the first stage starts, so a bad
   // value in a late stage does not surface hours into the run.
-  for (const PlannedStage& p : plan) p.spec->resolve(config, p.table);
+  // Their files too: an output never replaces an input of itself or of an earlier stage.
+  std::vector<StagePaths> paths;
+  for (const PlannedStage& p : plan) {
+    p.spec->resolve(config, p.table);
+    paths.push_back(p.spec->paths(config, p.table));
+    CheckStagePaths(paths.back());
+  }
+  CheckJobPaths(paths, flags.job);
   auto index_of = [&](const std::string& table, const char* flag) {
     for (size_t i = 0; i < plan.size(); ++i) if (plan[i].table == table) return i;
     throw InvalidInputError(std::string("--") + flag + " " + table + ": not a stage of " + flags.job);

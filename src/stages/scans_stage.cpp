@@ -281,11 +281,13 @@ void RegisterScans(CLI::App* app, AppState* state) {
       "Synthetic scan database: people from the demo head's identity modes, personal blendshapes "
       "that depend on identity, FACS expression scans with unwanted motion and noise; the true "
       "personal shapes are stored for evaluation",
+      PathKeys{{}, {{"out", OutputKind::kHdf5}}},
       RunScansSynth);
   AddStage<ScansImportOptions>(
       scans, state, "import", "scans.import", "scans import",
       "Registered OBJ scans (one per person and expression, listed in a labels CSV) into the scan "
       "database layout",
+      PathKeys{{"labels", "template_rig"}, {{"out", OutputKind::kHdf5}}},
       RunScansImport);
 }
 

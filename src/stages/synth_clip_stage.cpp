@@ -49,6 +49,13 @@ struct SynthClipOptions {
     v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
     clip.Visit(v);
   }
+  void DerivedOutputs(std::vector<NamedPath>* outputs) const {
+    if (video) {
+      outputs->push_back({"video (out with .mp4)",
+                          std::filesystem::path(out).replace_extension(".mp4").string(),
+                          OutputKind::kVideo});
+    }
+  }
   bool Check(std::string* why) const {
     if (batch <= 0) { *why = "batch must be positive"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
@@ -385,11 +392,13 @@ void RegisterSynthClip(CLI::App* synth, AppState* state) {
       "expressions and head motion, skin-like texture, moving lights, backgrounds, blur, noise "
       "and JPEG, with the true pose, weights, landmarks and segmentation of every frame; "
       "spread across ranks, identical for any rank count, resumable; --video adds an mp4",
+      PathKeys{{"rig", "background_folder"}, {{"out", OutputKind::kHdf5}}},
       RunSynthClip);
   AddStage<SynthSheetOptions>(
       synth, state, "sheet", "synth.sheet", "synth sheet",
       "Contact sheet of a clip's wild frames, each beside the segmentation render of the same "
       "frame (with its visible true landmarks)",
+      PathKeys{{"clip"}, {{"out", OutputKind::kImage}}},
       RunSynthSheet);
 }
 

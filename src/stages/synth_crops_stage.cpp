@@ -155,6 +155,7 @@ void RegisterSynthCrops(CLI::App* synth, AppState* state) {
       "A synthetic clip as ingest cropped its video: the crops beside the clip's segmentation "
       "warped by the same crop transforms, with the regions (paired deepfake examples in the "
       "framing of real crops; the true segmentation of a clip's crops for oracle solves)",
+      PathKeys{{"clip", "frames"}, {{"out", OutputKind::kHdf5}}},
       RunSynthCrops);
 }
 

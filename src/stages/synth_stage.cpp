@@ -260,6 +260,7 @@ void RegisterSynth(CLI::App* app, AppState* state) {
       "Random rig samples (controls uniform under per-region sparsity limits, pose from a "
       "truncated Gaussian) rendered as segmentation images with landmarks; spread across ranks, "
       "identical for any rank count, resumable",
+      PathKeys{{"rig"}, {{"out", OutputKind::kHdf5}}},
       RunSynthSamples);
   RegisterSynthClip(synth, state);
   RegisterSynthCrops(synth, state);

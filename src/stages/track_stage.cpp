@@ -442,6 +442,7 @@ void RegisterTrack(CLI::App* app, AppState* state) {
       "controls that make its soft segmentation render match the target, by block coordinate "
       "descent (pose, jaw, rest) with Ceres; frames spread across ranks by a dynamic work "
       "queue, identical for any rank count, resumable",
+      PathKeys{{"rig", "targets", "frames"}, {{"out", OutputKind::kHdf5}}},
       RunTrack);
 }
 

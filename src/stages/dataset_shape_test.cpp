@@ -1,0 +1,70 @@
+// Datasets whose shapes disagree with what they are read with (truth weights of 51 columns
+// for 52 shape names, poses of 2 columns) are input errors (exit 3) naming the file and the
+// dataset, never reads at the wrong stride.
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "io/hdf5.h"
+#include "testing/testing.h"
+#include "util/errors.h"
+
+namespace facecap::stages {
+namespace {
+
+using testing::RunFacecap;
+
+class DatasetShapes : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    rig_ = dir_.File("rig.h5");
+    truth_ = dir_.File("samples.h5");
+    track_ = dir_.File("track.h5");
+    ASSERT_EQ(RunFacecap("rig demo --out " + rig_).code, 0);
+    ASSERT_EQ(RunFacecap("synth samples --rig " + rig_ + " --out " + truth_ +
+                         " --count 3 --size 48").code, 0);
+    const auto r = RunFacecap("track --rig " + rig_ + " --targets " + truth_ +
+                              " --targets-dataset /samples/segmentation --out " + track_);
+    ASSERT_EQ(r.code, 0) << r.output;
+  }
+
+  // Replaces `name` of the truth file by a [rows, cols] dataset of zeros.
+  void Reshape(const std::string& name, int64_t rows, int64_t cols) {
+    io::H5File f = io::H5File::OpenReadWrite(truth_);
+    f.Remove(name);
+    const std::vector<float> zeros(rows * cols, 0.f);
+    f.Write<float>(name, {rows, cols}, zeros.data());
+    f.Close();
+  }
+
+  testing::CommandResult Eval() {
+    return RunFacecap("eval track --truth " + truth_ + " --track " + track_ + " --rig " + rig_);
+  }
+
+  testing::TempDir dir_;
+  std::string rig_, truth_, track_;
+};
+
+TEST_F(DatasetShapes, EvalTrackRunsOnTheUntouchedFiles) {
+  const auto r = Eval();
+  EXPECT_EQ(r.code, 0) << r.output;
+}
+
+TEST_F(DatasetShapes, TruthWeightsWithAColumnMissingAreAnInputError) {
+  Reshape("/samples/weights", 3, 51);
+  const auto r = Eval();
+  EXPECT_EQ(r.code, kExitInput) << r.output;
+  EXPECT_NE(r.output.find(truth_), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("/samples/weights"), std::string::npos) << r.output;
+}
+
+TEST_F(DatasetShapes, TruthPosesOfTwoColumnsAreAnInputError) {
+  Reshape("/samples/pose", 3, 2);
+  const auto r = Eval();
+  EXPECT_EQ(r.code, kExitInput) << r.output;
+  EXPECT_NE(r.output.find("/samples/pose"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace facecap::stages

@@ -1,0 +1,42 @@
+// Half-configured jobs: a stage named in [run] without its table, and [run] stages that is
+// not an array, are errors that name them; nothing runs and the current folder is untouched.
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "testing/testing.h"
+#include "util/errors.h"
+
+namespace facecap::stages {
+namespace {
+
+using testing::RunCommand;
+
+TEST(JobPlan, StageWithoutItsTableIsAnErrorNamingIt) {
+  testing::TempDir dir;
+  std::ofstream(dir.File("job.toml")) << "[run]\nstages = ['rig.demo', 'synth.samples']\n"
+                                      << "[rig.demo]\nout = 'person.h5'\n";
+  std::ofstream(dir.File("samples.h5")) << "an unrelated file";
+  const testing::CommandResult r =
+      RunCommand("cd " + dir.path() + " && " + testing::BuildDir() + "/facecap run job.toml");
+  EXPECT_EQ(r.code, kExitUsage) << r.output;
+  EXPECT_NE(r.output.find("names 'synth.samples', but the job has no [synth.samples] table"),
+            std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.File("person.h5"))) << "a stage ran";
+  std::ifstream in(dir.File("samples.h5"));
+  std::string text((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_EQ(text, "an unrelated file");
+}
+
+TEST(JobPlan, StagesMustBeAnArray) {
+  testing::TempDir dir;
+  std::ofstream(dir.File("job.toml")) << "[run]\nstages = 'rig.demo'\n[rig.demo]\n";
+  const testing::CommandResult r = testing::RunFacecap("run " + dir.File("job.toml"));
+  EXPECT_EQ(r.code, kExitUsage) << r.output;
+  EXPECT_NE(r.output.find("[run] stages must be an array"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace facecap::stages
