@@ -72,6 +72,37 @@ cv::Mat ToGray(const Image8& image) {
   return gray;
 }
 
+// The image the HOG detector reads: the RGB colours for a colour image (dlib's HOG takes each
+// pixel's gradient in the channel where it is strongest, which a gray conversion weakens on
+// turned heads), else the gray image.
+cv::Mat ToDetectable(const Image8& image) {
+  if (image.channels != 3 && image.channels != 4) return ToGray(image);
+  if (image.width <= 0 || image.height <= 0) throw InvalidInputError("face analyzer: empty image");
+  cv::Mat view(image.height, image.width, CV_8UC(image.channels),
+               const_cast<uint8_t*>(image.data.data()));
+  if (image.channels == 3) return view;
+  cv::Mat rgb;
+  cv::cvtColor(view, rgb, cv::COLOR_RGBA2RGB);
+  return rgb;
+}
+
+// The detector on `work` (8-bit gray or RGB, as Pixel), after `upsample` pyramid_up doublings.
+template <typename Pixel>
+std::vector<dlib::rect_detection> RunDetector(dlib::frontal_face_detector& detector,
+                                              const cv::Mat& work, int upsample, double threshold) {
+  std::vector<dlib::rect_detection> detections;
+  if (upsample == 0) {
+    dlib::cv_image<Pixel> view(work);
+    detector(view, detections, threshold);
+  } else {
+    dlib::array2d<Pixel> up;
+    dlib::assign_image(up, dlib::cv_image<Pixel>(work));
+    for (int i = 0; i < upsample; ++i) dlib::pyramid_up(up);
+    detector(up, detections, threshold);
+  }
+  return detections;
+}
+
 }  // namespace
 
 struct FaceAnalyzer::Impl {
@@ -155,31 +186,23 @@ double FaceAnalyzer::SmallestFaceWithSearch(int width, int height) const {
 }
 
 std::vector<FaceBox> FaceAnalyzer::Detect(const Image8& image) {
-  const cv::Mat gray = ToGray(image);
+  const cv::Mat source = ToDetectable(image);
   const FaceAnalyzerOptions& o = impl_->options;
   const double threshold = o.detect_threshold;
   // Detection at `target` detection pixels per source pixel (then `upsample` pyramid_up
   // doublings): the image resized (area filter down, bilinear up), boxes in source pixels.
   auto detect_at = [&](double target, int upsample) {
-    cv::Mat work = gray;
+    cv::Mat work = source;
     double scale = 1.0;
     if (std::abs(target - 1.0) > 1e-9) {
-      cv::resize(gray, work, cv::Size(), target, target, target < 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
-      scale = static_cast<double>(work.cols) / gray.cols;
+      cv::resize(source, work, cv::Size(), target, target, target < 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
+      scale = static_cast<double>(work.cols) / source.cols;
     }
-    std::vector<dlib::rect_detection> detections;
-    if (upsample == 0) {
-      dlib::cv_image<unsigned char> view(work);
-      impl_->detector(view, detections, threshold);
-    } else {
-      dlib::array2d<unsigned char> up;
-      dlib::assign_image(up, dlib::cv_image<unsigned char>(work));
-      for (int i = 0; i < upsample; ++i) {
-        dlib::pyramid_up(up);
-        scale *= 2.0;
-      }
-      impl_->detector(up, detections, threshold);
-    }
+    scale *= std::pow(2.0, upsample);
+    const std::vector<dlib::rect_detection> detections =
+        work.channels() == 3
+            ? RunDetector<dlib::rgb_pixel>(impl_->detector, work, upsample, threshold)
+            : RunDetector<unsigned char>(impl_->detector, work, upsample, threshold);
     std::vector<FaceBox> boxes;
     for (const dlib::rect_detection& d : detections) {
       FaceBox b;
@@ -192,10 +215,10 @@ std::vector<FaceBox> FaceAnalyzer::Detect(const Image8& image) {
     }
     return boxes;
   };
-  const double first = FirstScale(o, gray.cols, gray.rows) / std::pow(2.0, o.detect_upsample);
+  const double first = FirstScale(o, source.cols, source.rows) / std::pow(2.0, o.detect_upsample);
   std::vector<FaceBox> boxes = detect_at(std::min(1.0, first), o.detect_upsample);
   if (boxes.empty()) {
-    const double small = SmallFaceScale(o, gray.cols, gray.rows);
+    const double small = SmallFaceScale(o, source.cols, source.rows);
     if (small > 0.0) boxes = detect_at(small, 0);
   }
   std::stable_sort(boxes.begin(), boxes.end(),
