@@ -64,7 +64,7 @@ ScanData ReadScans(const std::string& path, bool with_truth) {
   d.tmpl = assets::LinearizeRig(d.topology);
   d.alpha = f.ReadMatrix<float>("/scans/facs/weights", -1, d.tmpl.NumShapes());
   const int V = d.tmpl.NumVertices(), K = static_cast<int>(d.alpha.rows()), N = d.tmpl.NumShapes();
-  d.split = f.ReadVector<int32_t>("/scans/people/split");
+  d.split = f.ReadVector<int32_t>("/scans/people/split", f.NumFrames("/scans/people/neutral"));
   const int P = static_cast<int>(d.split.size());
   with_truth = with_truth && f.Exists("/scans/truth/deltas");
   for (int j = 0; j < P; ++j) {

@@ -131,7 +131,7 @@ struct FoundFrames {
 };
 
 std::vector<int64_t> FoundRows(const io::H5File& f) {
-  const std::vector<uint8_t> found = f.ReadVector<uint8_t>("/frames/found");
+  const std::vector<uint8_t> found = f.ReadVector<uint8_t>("/frames/found", f.NumFrames("/frames/crop"));
   std::vector<int64_t> rows;
   for (int64_t i = 0; i < static_cast<int64_t>(found.size()); ++i) if (found[i]) rows.push_back(i);
   return rows;
@@ -291,7 +291,8 @@ void RunCurateQuery(const StageFlags& flags, AppState* state) {
 
   std::vector<QueryItem> queries;
   if (o.frame >= 0) {
-    const std::vector<uint8_t> found = frames.ReadVector<uint8_t>("/frames/found");
+    const std::vector<uint8_t> found =
+        frames.ReadVector<uint8_t>("/frames/found", frames.NumFrames("/frames/crop"));
     if (o.frame >= static_cast<int64_t>(found.size())) {
       throw InvalidInputError("[curate.query] frame " + std::to_string(o.frame) + " is outside " +
                               frames_path + " (" + std::to_string(found.size()) + " frames)");

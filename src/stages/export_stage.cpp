@@ -326,6 +326,13 @@ class OverlayFrames {
     if (dataset_.empty() && track.InSourceCamera() && ingested) {
       files_ = file_.ReadStrings("/sources/files");
       file_id_ = file_.ReadVector<int32_t>("/frames/source_file_id");
+      for (int32_t id : file_id_) {
+        if (id < 0 || id >= static_cast<int32_t>(files_.size())) {
+          throw FileIOError(path + ": /frames/source_file_id holds " + std::to_string(id) +
+                            ", but /sources/files names " + std::to_string(files_.size()) +
+                            " files");
+        }
+      }
       if (files_.size() == 1 && file_.GetDoubleAttribute("/sources/files", "fps") > 0.) {
         video_ = face::FrameSource::OpenVideo(files_[0], kMaxPixels);
       }

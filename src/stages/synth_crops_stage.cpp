@@ -108,8 +108,10 @@ void RunSynthCrops(const StageFlags& flags, AppState* state) {
   f.SetAttribute("/frames/found", "meaning", std::string("1: ingest found the face (frames with 0 are not used)"));
   f.Write<float>("/frames/crop_transform", {n, 2, 3}, transform.data());
   f.WriteVector("/frames/source_index", source);
-  f.WriteStrings("/regions/names", clip.ReadStrings("/regions/names"));
-  const auto colors = clip.ReadMatrix<float>("/regions/colors");
+  const std::vector<std::string> region_names = clip.ReadStrings("/regions/names");
+  f.WriteStrings("/regions/names", region_names);
+  const auto colors =
+      clip.ReadMatrix<float>("/regions/colors", static_cast<int64_t>(region_names.size()), 3);
   f.WriteMatrix("/regions/colors", colors);
   // Blocks of frames: a read and a write per dataset and block.
   constexpr int64_t kBlock = 64;
