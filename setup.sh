@@ -5,6 +5,7 @@
 #   ./setup.sh            install the Debian packages and build (build/facecap)
 #   ./setup.sh demo       ... then run the demo pipeline and print its metrics
 #   ./setup.sh test       ... then run the whole test suite (ctest, without the "long" label)
+#                         and the fuzz targets for 20 s each (tests/fuzz/run.sh)
 #   ./setup.sh test-long  ... then run the whole suite including long tests
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -35,6 +36,10 @@ PACKAGES=(
   python3-h5py python3-matplotlib python3-numpy
   # real test media: a portrait photo (grace_hopper.jpg) for the face and ingest tests
   python-matplotlib-data
+  # the fuzzing build (tests/fuzz, run by `./setup.sh test`): clang with libFuzzer, ASan and
+  # UBSan; their runtimes (libclang-rt-14-dev) and clang's OpenMP (libomp-dev) are only
+  # recommended by clang, so they are listed
+  clang libfuzzer-14-dev libclang-rt-14-dev libomp-dev
 )
 
 SUDO=""
@@ -74,6 +79,8 @@ case "$MODE" in
     ;;
   test)
     ctest --test-dir build --output-on-failure -j 2 -LE long
+    # The file readers under libFuzzer with ASan and UBSan (build-fuzz/), 20 s per target.
+    FACECAP_BUILD_JOBS="$JOBS" tests/fuzz/run.sh 20
     ;;
   test-long)
     ctest --test-dir build --output-on-failure -j 2

@@ -86,6 +86,25 @@ Config Config::Load(const std::string& path) {
   return config;
 }
 
+namespace {
+
+// How deeply tables and arrays nest below `node` (0 for a plain value).
+int NestingDepth(const toml::node& node) {
+  int deepest = 0;
+  if (const toml::table* t = node.as_table()) {
+    for (const auto& [key, value] : *t) deepest = std::max(deepest, 1 + NestingDepth(value));
+  } else if (const toml::array* a = node.as_array()) {
+    for (const toml::node& value : *a) deepest = std::max(deepest, 1 + NestingDepth(value));
+  }
+  return deepest;
+}
+
+// Deeper than any job file needs; toml++ reads back at most 256 levels of what ToToml writes
+// (dotted keys nest tables without counting towards its limit when parsed).
+constexpr int kMaxNestingDepth = 64;
+
+}  // namespace
+
 Config Config::Parse(const std::string& text, const std::string& origin) {
   Config config;
   config.origin_ = origin;
@@ -96,6 +115,12 @@ Config Config::Parse(const std::string& text, const std::string& origin) {
     os << origin << ":" << e.source().begin.line << ":" << e.source().begin.column
        << ": not valid TOML: " << e.description();
     throw InvalidInputError(os.str());
+  }
+  const int depth = NestingDepth(config.impl_->root);
+  if (depth > kMaxNestingDepth) {
+    throw InvalidInputError(origin + ": tables and arrays nest " + std::to_string(depth) +
+                            " levels deep; a job file needs a few, at most " +
+                            std::to_string(kMaxNestingDepth));
   }
   return config;
 }

@@ -104,6 +104,17 @@ TEST(Config, NonFiniteNumbersAreRefusedFromJobFilesAndSet) {
   EXPECT_THROW(ResolveOptions<ExampleOptions>(list, "synth.samples"), InvalidInputError);
 }
 
+// Found by fuzzing: dotted keys nest tables that toml++ reads but would not read back from
+// what ToToml writes; such nesting is refused when parsed.
+TEST(Config, DeepNestingIsRefusedAndWhatIsAcceptedReadsBack) {
+  std::string deep = "a = {";
+  for (int i = 0; i < 100; ++i) deep += "k" + std::to_string(i) + ".";
+  deep += "v = 1}\n";
+  EXPECT_THROW(Config::Parse(deep, "deep.toml"), InvalidInputError);
+  const Config ok = Config::Parse("[synth.samples]\ncount = 3\nsizes = [[1, 2], [3]]\n");
+  EXPECT_NO_THROW(Config::Parse(ok.ToToml(), "written back"));
+}
+
 TEST(Config, OneStringIsAListOfOne) {
   Config c = Config::Parse("[t]\nfiles = 'a.h5'\nmore = ['b.h5', 'c.h5']\nbad = [1]\n", "job.toml");
   std::vector<std::string> files, more, bad;

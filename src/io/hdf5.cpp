@@ -467,6 +467,12 @@ void CloseObject(hid_t obj) {
   if (obj >= 0) H5Oclose(obj);
 }
 
+// The number of values an attribute holds (1 for a scalar), or -1 when unknown.
+hssize_t AttributePoints(hid_t attr) {
+  Handle space(H5Aget_space(attr));
+  return space.ok() ? H5Sget_simple_extent_npoints(space.get()) : -1;
+}
+
 }  // namespace
 
 void H5File::SetAttribute(const std::string& object, const std::string& name,
@@ -534,7 +540,8 @@ std::string H5File::GetStringAttribute(const std::string& object, const std::str
   Handle attr(H5Aopen(obj, name.c_str(), H5P_DEFAULT));
   Handle ftype(H5Aget_type(attr.get()));
   std::string out;
-  bool ok = H5Tget_class(ftype.get()) == H5T_STRING;
+  // One string: an array of them would be read past the single value below.
+  bool ok = H5Tget_class(ftype.get()) == H5T_STRING && AttributePoints(attr.get()) == 1;
   if (ok && H5Tis_variable_str(ftype.get()) > 0) {
     char* p = nullptr;
     Handle mtype(H5Tcopy(H5T_C_S1));
@@ -550,7 +557,7 @@ std::string H5File::GetStringAttribute(const std::string& object, const std::str
     out.assign(buf.data(), strnlen(buf.data(), len));
   }
   CloseObject(obj);
-  if (!ok) FailRead("attribute " + object + "@" + name + " is not a string");
+  if (!ok) FailRead("attribute " + object + "@" + name + " is not a single string");
   return out;
 }
 
@@ -578,9 +585,12 @@ int64_t H5File::GetIntAttribute(const std::string& object, const std::string& na
   if (!HasAttribute(object, name)) FailRead("missing attribute " + object + "@" + name);
   hid_t obj = OpenObject(id_, Normalize(object));
   Handle attr(H5Aopen(obj, name.c_str(), H5P_DEFAULT));
+  const hssize_t points = AttributePoints(attr.get());
   int64_t value = 0;
-  const bool ok = H5Aread(attr.get(), H5T_NATIVE_INT64, &value) >= 0;
+  // One value: an array of them would be read past `value`.
+  const bool ok = points == 1 && H5Aread(attr.get(), H5T_NATIVE_INT64, &value) >= 0;
   CloseObject(obj);
+  if (points != 1 && points >= 0) FailRead("attribute " + object + "@" + name + " is not a scalar");
   if (!ok) FailRead("attribute " + object + "@" + name + " is not an integer");
   return value;
 }

@@ -2,8 +2,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include "testing/testing.h"
 #include "util/errors.h"
@@ -147,6 +149,51 @@ TEST(H5File, ProvenanceAttributesPresent) {
   }
   EXPECT_EQ(f.GetIntAttribute("/", "mpi_ranks"), 3);
   EXPECT_EQ(f.GetStringAttribute("/", "stage"), "rig demo");
+}
+
+// An attribute holding several values was read into room for one: GetIntAttribute wrote the
+// whole array over its single int64, GetStringAttribute read every string into a buffer for
+// one. Both are errors naming the file now.
+TEST(H5File, ArrayAttributesAreNotReadAsOneValue) {
+  testing::TempDir dir;
+  const std::string path = dir.File("a.h5");
+  {
+    H5File f = H5File::CreateAtomic(path);
+    f.WriteVector<float>("/x", {1.f});
+    f.SetAttribute("/x", "counts", std::vector<double>{1., 2., 3., 4.});
+    f.Commit();
+  }
+  {
+    // Two fixed-length strings in one attribute (the writer makes only single strings).
+    hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    hid_t type = H5Tcopy(H5T_C_S1);
+    H5Tset_size(type, 8);
+    const hsize_t two = 2;
+    hid_t space = H5Screate_simple(1, &two, nullptr);
+    hid_t attr = H5Acreate2(file, "names", type, space, H5P_DEFAULT, H5P_DEFAULT);
+    const char values[16] = {'j', 'a', 'w', 'O', 'p', 'e', 'n', '\0',
+                             'e', 'y', 'e', 'B', 'l', 'i', 'n', 'k'};
+    ASSERT_GE(H5Awrite(attr, type, values), 0);
+    H5Aclose(attr);
+    H5Sclose(space);
+    H5Tclose(type);
+    H5Fclose(file);
+  }
+  H5File f = H5File::OpenRead(path);
+  for (const auto& read : std::vector<std::function<void()>>{
+           [&] { f.GetIntAttribute("/x", "counts"); },
+           [&] { f.GetDoubleAttribute("/x", "counts"); },
+           [&] { f.GetStringAttribute("/", "names"); },
+           [&] { f.GetStringAttribute("/x", "counts"); }}) {
+    try {
+      read();
+      FAIL() << "expected FileIOError";
+    } catch (const FileIOError& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(f.GetDoubleVectorAttribute("/x", "counts").size(), 4u);
 }
 
 TEST(ConfigHash, StableAndSensitive) {

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <set>
 #include <sstream>
@@ -115,12 +116,13 @@ class ObjParser {
         bool any_uv = false, all_uv = true;
         SkipSpaces();
         while (cursor_ < line_end_ && *cursor_ != '#') {
-          int vertex = ResolveIndex(Integer("face vertex index"), positions.size());
+          int vertex = ResolveIndex(Integer("face vertex index"), positions.size(), "vertex");
           int uv = -1;
           if (cursor_ < line_end_ && *cursor_ == '/') {
             ++cursor_;
             if (cursor_ < line_end_ && *cursor_ != '/') {
-              uv = ResolveIndex(Integer("face texture index"), texcoords.size());
+              uv = ResolveIndex(Integer("face texture index"), texcoords.size(),
+                                "texture coordinate");
             }
             if (cursor_ < line_end_ && *cursor_ == '/') {  // normal index: ignored
               ++cursor_;
@@ -150,6 +152,13 @@ class ObjParser {
       throw FileIOError(path_ + ": " + std::to_string(faces_with_uv) +
                         " faces have texture indices and " + std::to_string(faces_without_uv) +
                         " do not; expected all or none");
+    }
+    if (positions.empty()) {
+      throw FileIOError(path_ + ": no vertices (" +
+                        (text_.empty() ? std::string("the file is empty")
+                                       : "no 'v' line in " + std::to_string(line_number_) +
+                                             " lines") +
+                        ")");
     }
     Mesh mesh;
     mesh.vertices.resize(static_cast<int>(positions.size()), 3);
@@ -204,7 +213,10 @@ class ObjParser {
     std::string token = Word();
     char* end = nullptr;
     const float value = std::strtof(token.c_str(), &end);
-    if (end == token.c_str() || *end != '\0') Fail(std::string("bad ") + what + " '" + token + "'");
+    // The whole token: a NUL byte inside it ends strtof's number but not the token.
+    if (end != token.c_str() + token.size() || token.empty()) {
+      Fail(std::string("bad ") + what + " '" + token.c_str() + "'");
+    }
     return value;
   }
   long Integer(const char* what) {
@@ -214,12 +226,25 @@ class ObjParser {
     if (cursor_ == start || (cursor_ == start + 1 && (*start == '-' || *start == '+'))) {
       Fail(std::string("bad ") + what);
     }
-    const long value = std::strtol(std::string(start, cursor_).c_str(), nullptr, 10);
+    const std::string text(start, cursor_);
+    errno = 0;
+    const long value = std::strtol(text.c_str(), nullptr, 10);
+    if (errno == ERANGE) Fail(std::string(what) + " " + text + " is out of range");
     if (value == 0) Fail(std::string(what) + " 0 (OBJ indices start at 1)");
     return value;
   }
-  // 1-based, or negative relative to the elements read so far; returns 0-based.
-  static int ResolveIndex(long index, size_t count) {
+  // 1-based, or negative relative to the elements read so far; returns 0-based. A positive
+  // index may refer to an element defined later (checked once the file is read); a negative
+  // one must fall within the elements read so far, and neither may exceed the int range.
+  int ResolveIndex(long index, size_t count, const char* what) const {
+    if (index > std::numeric_limits<int>::max()) {
+      Fail(std::string("face refers to ") + what + " " + std::to_string(index) +
+           ", beyond any mesh this reader takes");
+    }
+    if (index < -static_cast<long>(count)) {
+      Fail(std::string("face refers to ") + what + " " + std::to_string(index) + " but only " +
+           std::to_string(count) + " precede it");
+    }
     return static_cast<int>(index > 0 ? index - 1 : static_cast<long>(count) + index);
   }
 

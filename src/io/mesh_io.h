@@ -33,7 +33,8 @@ struct Mesh {
   rig::Triangles uv_triangles;
 };
 
-// Reads an OBJ file; FileIOError on malformed lines, out-of-range indices or non-finite values.
+// Reads an OBJ file; FileIOError on malformed lines, out-of-range indices, non-finite values,
+// or a file without vertices ("FILE: no vertices", also for an empty file).
 Mesh ReadMeshObj(const std::string& path);
 
 // Writes an OBJ (v, vt when uvs is given, f v/vt). uvs and uv_triangles are both null or both

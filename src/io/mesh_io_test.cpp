@@ -235,6 +235,54 @@ TEST(ObjTest, ReadsPolygonsNegativeIndicesAndCornerForms) {
   EXPECT_NE(error.find("vertex 7"), std::string::npos) << error;
 }
 
+TEST(ObjTest, EmptyFileOrNoVerticesIsAnErrorNamingTheFile) {
+  testing::TempDir tmp;
+  WriteText(tmp.File("empty.obj"), "");
+  std::string error = ErrorOf([&] { ReadMeshObj(tmp.File("empty.obj")); });
+  EXPECT_NE(error.find(tmp.File("empty.obj") + ": no vertices"), std::string::npos) << error;
+  WriteText(tmp.File("comments.obj"), "# only a comment\nvt 0 0\n\n");
+  error = ErrorOf([&] { ReadMeshObj(tmp.File("comments.obj")); });
+  EXPECT_NE(error.find(tmp.File("comments.obj") + ": no vertices"), std::string::npos) << error;
+}
+
+TEST(ObjTest, EmptyNeutralIsReportedAsNoVerticesNotAsATopologyMismatch) {
+  testing::TempDir tmp;
+  WriteText(tmp.File("neutral.obj"), "");
+  WriteText(tmp.File("jawOpen.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  const std::string error = ErrorOf([&] { ImportRigFromObjFolder(tmp.path()); });
+  EXPECT_NE(error.find(tmp.File("neutral.obj") + ": no vertices"), std::string::npos) << error;
+  EXPECT_EQ(error.find("topology"), std::string::npos) << error;
+}
+
+// Indices beyond the int range wrapped around to valid vertices (4294967298 became vertex 2),
+// and relative texture indices before the first one made a face silently lose its uvs.
+TEST(ObjTest, IndicesOutsideTheFileAreErrorsNotWrappedOrDropped) {
+  testing::TempDir tmp;
+  const std::string v = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"f 1 2 4294967298\n", "vertex 4294967298"},
+      {"f 1 2 99999999999999999999999\n", "face vertex index 99999999999999999999999 is out of range"},
+      {"f -1 -2 -4\n", "vertex -4 but only 3 precede it"},
+      {"f 1/-2 2/-2 3/-2\n", "texture coordinate -2 but only 1 precede it"},
+      {"f 1 2 -9223372036854775808\n", "vertex"},
+  };
+  for (const auto& [face, expected] : cases) {
+    WriteText(tmp.File("bad.obj"), v + face);
+    const std::string error = ErrorOf([&] { ReadMeshObj(tmp.File("bad.obj")); });
+    EXPECT_NE(error.find(tmp.File("bad.obj") + ":5:"), std::string::npos) << face << error;
+    EXPECT_NE(error.find(expected), std::string::npos) << face << error;
+  }
+}
+
+TEST(ObjTest, NulByteInsideANumberIsAnError) {
+  testing::TempDir tmp;
+  const char kText[] = "v 0 0 0\nv 1\0junk 0 0\nv 0 1 0\nf 1 2 3\n";
+  WriteText(tmp.File("nul.obj"), std::string(kText, sizeof(kText) - 1));
+  const std::string error = ErrorOf([&] { ReadMeshObj(tmp.File("nul.obj")); });
+  EXPECT_NE(error.find(tmp.File("nul.obj") + ":2: bad vertex coordinate"), std::string::npos)
+      << error;
+}
+
 TEST(ObjTest, ExportRefusesForeignObjFilesAndBadNames) {
   testing::TempDir tmp;
   WriteText(tmp.File("someone_else.obj"), "v 0 0 0\n");

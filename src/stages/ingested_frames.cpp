@@ -1,11 +1,17 @@
 #include "stages/ingested_frames.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "io/hdf5.h"
 #include "util/errors.h"
 
 namespace facecap::stages {
+
+namespace {
+// Coordinates beyond this (in source or crop pixels) are not those of an image.
+constexpr float kMaxPixels = 1e9f;
+}  // namespace
 
 IngestedFrames IngestedFrames::Read(const std::string& path) {
   io::H5File f = io::H5File::OpenRead(path);
@@ -20,6 +26,10 @@ IngestedFrames IngestedFrames::Read(const std::string& path) {
   }
   const io::Shape crop = f.CheckShape("/frames/crop", {-1, -1, -1, 3});
   const int64_t n = crop[0];
+  if (crop[1] != crop[2] || crop[1] <= 0 || crop[1] > (1 << 16)) {
+    throw FileIOError(path + ": dataset /frames/crop has shape " + io::ShapeToString(crop) +
+                      ", expected square crops [*, S, S, 3] with S > 0");
+  }
   r.crop_size_ = static_cast<int>(crop[2]);
   f.CheckShape("/frames/found", {n});
   f.CheckShape("/frames/crop_transform", {n, 2, 3});
@@ -41,8 +51,30 @@ IngestedFrames IngestedFrames::Read(const std::string& path) {
   if (f.HasAttribute("/sources/files", "fps")) r.fps_ = f.GetDoubleAttribute("/sources/files", "fps");
   if (!std::isfinite(r.fps_) || r.fps_ < 0.) r.fps_ = 0.;
   for (int64_t k = 0; k < n; ++k) {
-    if (r.found_[k] && (r.image_size_[2 * k] <= 0 || r.image_size_[2 * k + 1] <= 0)) {
-      throw FileIOError(path + ": frame " + std::to_string(k) + " has a face but no image size");
+    const std::string frame = path + ": frame " + std::to_string(k);
+    if (r.source_index_[k] < 0 || !std::isfinite(r.timecode_[k])) {
+      throw FileIOError(frame + " has source index " + std::to_string(r.source_index_[k]) +
+                        " and timecode " + std::to_string(r.timecode_[k]) +
+                        " (expected an index >= 0 and a finite time)");
+    }
+    if (!r.found_[k]) continue;
+    if (r.image_size_[2 * k] <= 0 || r.image_size_[2 * k + 1] <= 0) {
+      throw FileIOError(frame + " has a face but no image size");
+    }
+    // A face's crop is a similarity with a scale in [1e-6, 1e6] and a translation within
+    // kMaxPixels, its landmarks are within kMaxPixels: the cameras and landmarks derived from
+    // them stay finite.
+    const float* t = &r.crop_transform_[6 * k];
+    const auto within = [](float x) { return std::isfinite(x) && std::abs(x) <= kMaxPixels; };
+    const double det = static_cast<double>(t[0]) * t[4] - static_cast<double>(t[1]) * t[3];
+    if (!std::all_of(t, t + 6, within) || !(det >= 1e-12 && det <= 1e12)) {
+      throw FileIOError(frame + " has a face but its /frames/crop_transform is not a "
+                        "similarity with a scale in [1e-6, 1e6]");
+    }
+    const float* l = &r.landmarks_[136 * k];
+    if (!std::all_of(l, l + 136, within)) {
+      throw FileIOError(frame + " has a face but landmarks that are not finite or beyond 1e9 "
+                        "pixels");
     }
   }
   return r;

@@ -20,7 +20,11 @@ namespace facecap::stages {
 class IngestedFrames {
  public:
   // Reads and checks every dataset's shape; FileIOError names the file and what is wrong
-  // (an ingest output written before ingest recorded its camera asks to rerun ingest).
+  // (an ingest output written before ingest recorded its camera asks to rerun ingest). Also
+  // refused: crops that are not square, a negative source index or non-finite timecode, and a
+  // frame with a face whose image size is not positive, whose crop transform is not a
+  // similarity with a scale in [1e-6, 1e6], or whose transform or landmarks are not finite
+  // pixels within 1e9: every camera and landmark the accessors derive is finite.
   static IngestedFrames Read(const std::string& path);
 
   int64_t NumFrames() const { return static_cast<int64_t>(found_.size()); }

@@ -18,7 +18,11 @@ namespace facecap::stages {
 class TrackedRig {
  public:
   // Reads /track/{shape_names, pose, translation, scale, weights, termination} and
-  // /camera/intrinsics of `path`; tracked shapes the rig lacks are ignored.
+  // /camera/intrinsics of `path`; tracked shapes the rig lacks are ignored. FileIOError names
+  // the file and what is wrong: a missing dataset, a per-frame dataset whose rows differ from
+  // /track/pose's, weights whose columns differ from the shape names, a name given twice, a
+  // non-finite pose or weight, a scale <= 0, a camera without finite positive focal lengths
+  // and a positive width, a negative source index or a non-finite timecode.
   TrackedRig(const std::string& path, const rig::Rig& rig);
 
   int64_t NumFrames() const { return static_cast<int64_t>(scale_.size()); }
