@@ -114,18 +114,8 @@ void Exercise(const stages::IngestedFrames& frames) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace facecap;
   using namespace facecap::fuzz;
-  FuzzedDataProvider in(data, size);
-  FileSpec spec = BaseFrames(in);
-  ApplyEdits(in, FrameSlots(), &spec);
-  if (DescribeRequested()) std::fprintf(stderr, "%s", Describe(spec).c_str());
-  const std::string path = ScratchPath("frames.h5");
-  if (!WriteSpec(spec, path)) return 0;
-  try {
-    const stages::IngestedFrames frames = stages::IngestedFrames::Read(path);
-    Exercise(frames);
-  } catch (const FileIOError& e) {
-    if (DescribeRequested()) std::fprintf(stderr, "FileIOError: %s\n", e.what());
-    ExpectNamesFile(e, path);
-  }
-  return 0;
+  return RunHdf5Input(data, size, BaseFrames, FrameSlots(), "frames.h5",
+                      [](const std::string& path) {
+                        Exercise(stages::IngestedFrames::Read(path));
+                      });
 }

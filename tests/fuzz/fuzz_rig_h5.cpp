@@ -71,18 +71,6 @@ void Exercise(const rig::Rig& rig) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace facecap;
   using namespace facecap::fuzz;
-  FuzzedDataProvider in(data, size);
-  FileSpec spec = BaseRig(in);
-  ApplyEdits(in, RigSlots(), &spec);
-  if (DescribeRequested()) std::fprintf(stderr, "%s", Describe(spec).c_str());
-  const std::string path = ScratchPath("rig.h5");
-  if (!WriteSpec(spec, path)) return 0;
-  try {
-    const rig::Rig rig = io::ReadRigFile(path);
-    Exercise(rig);
-  } catch (const FileIOError& e) {
-    if (DescribeRequested()) std::fprintf(stderr, "FileIOError: %s\n", e.what());
-    ExpectNamesFile(e, path);
-  }
-  return 0;
+  return RunHdf5Input(data, size, BaseRig, RigSlots(), "rig.h5",
+                      [](const std::string& path) { Exercise(io::ReadRigFile(path)); });
 }

@@ -535,6 +535,27 @@ inline void AddRig(const rig::Rig& r, const std::string& group, FileSpec* spec) 
       Numeric(Kind::kFloat32, {static_cast<int64_t>(r.identity_modes.size()), V, 3}, modes);
 }
 
+// One input of a structure-aware HDF5 target: the file `base` describes, with the edits the
+// rest of the input makes to `slots`, written as the scratch file `name` and given to `read`
+// (the reader, then the accessors a stage calls). A FileIOError must name the file.
+template <typename Base, typename Read>
+int RunHdf5Input(const uint8_t* data, size_t size, Base base, const Slots& slots,
+                 const std::string& name, Read read) {
+  FuzzedDataProvider in(data, size);
+  FileSpec spec = base(in);
+  ApplyEdits(in, slots, &spec);
+  if (DescribeRequested()) std::fprintf(stderr, "%s", Describe(spec).c_str());
+  const std::string path = ScratchPath(name);
+  if (!WriteSpec(spec, path)) return 0;
+  try {
+    read(path);
+  } catch (const FileIOError& e) {
+    if (DescribeRequested()) std::fprintf(stderr, "FileIOError: %s\n", e.what());
+    ExpectNamesFile(e, path);
+  }
+  return 0;
+}
+
 }  // namespace facecap::fuzz
 
 #endif  // FACECAP_TESTS_FUZZ_FUZZ_SUPPORT_H_

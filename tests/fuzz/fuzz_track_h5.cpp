@@ -116,18 +116,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace facecap;
   using namespace facecap::fuzz;
   static const rig::Rig rig = SmallRig();
-  FuzzedDataProvider in(data, size);
-  FileSpec spec = BaseTrack(in);
-  ApplyEdits(in, TrackSlots(), &spec);
-  if (DescribeRequested()) std::fprintf(stderr, "%s", Describe(spec).c_str());
-  const std::string path = ScratchPath("track.h5");
-  if (!WriteSpec(spec, path)) return 0;
-  try {
-    const stages::TrackedRig track(path, rig);
-    Exercise(track, rig);
-  } catch (const FileIOError& e) {
-    if (DescribeRequested()) std::fprintf(stderr, "FileIOError: %s\n", e.what());
-    ExpectNamesFile(e, path);
-  }
-  return 0;
+  return RunHdf5Input(data, size, BaseTrack, TrackSlots(), "track.h5",
+                      [](const std::string& path) { Exercise(stages::TrackedRig(path, rig), rig); });
 }
