@@ -174,9 +174,9 @@ struct Tracker::Impl {
     return sum;
   }
 
-  // Landmark reprojection error |proj(X_l) - l|^2 over visible landmarks.
+  // Landmark reprojection error |proj(X_l) - l|^2 over the visible landmarks from `first` on.
   double Landmarks(const Eigen::VectorXf& full, const std::vector<int>* columns,
-                   Eigen::MatrixXd* normal, Eigen::VectorXd* gradient) {
+                   Eigen::MatrixXd* normal, Eigen::VectorXd* gradient, int first = 0) {
     rig::RigidPose pose;
     Eigen::VectorXf weights;
     Unpack(full, &pose, &weights);
@@ -199,7 +199,7 @@ struct Tracker::Impl {
       normal->setZero(m, m);
       gradient->setZero(m);
     }
-    for (int l = 0; l < L; ++l) {
+    for (int l = first; l < L; ++l) {
       if (!target.landmark_visible.empty() && !target.landmark_visible[l]) continue;
       const Eigen::Vector3f x = positions.row(l).transpose();
       const Eigen::Vector3f uvd = cam.Project(x);
@@ -229,8 +229,11 @@ struct Tracker::Impl {
     if (lambda > 0.f && target.landmarks.rows() > 0) {
       Eigen::MatrixXd lm_normal;
       Eigen::VectorXd lm_gradient;
+      // The term leaves out the 17 jaw points of the 68: dlib puts them on the silhouette of
+      // the turned head, which no fixed vertex follows, and fitting them tilts the head.
+      const int first = target.landmarks.rows() == 68 ? 17 : 0;
       sum += lambda * Landmarks(full, columns, normal ? &lm_normal : nullptr,
-                                normal ? &lm_gradient : nullptr);
+                                normal ? &lm_gradient : nullptr, first);
       if (normal) {
         *normal += lambda * lm_normal;
         *gradient += lambda * lm_gradient;

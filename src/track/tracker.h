@@ -65,8 +65,9 @@ struct TrackerOptions {
   // free to take any value that trades a few border pixels; 0 turns it off.
   float weight_prior = 3.f;
   // lambda_L of a landmark term lambda_L sum_l |proj(X_l) - l|^2 added to the segmentation
-  // cost, over the target's visible landmarks (pixels of the target image; it scales with
-  // the pixel count like the prior); 0: off, and ignored for a target without landmarks.
+  // cost, over the target's visible landmarks but the jaw contour (points 17-67 of the 68;
+  // pixels of the target image; it scales with the pixel count like the prior); 0: off, and
+  // ignored for a target without landmarks.
   float landmark_weight = 0.f;
   // Residual colours: false compares the soft render F_seg with the target (consistent cost
   // and derivative); true compares the hard render (exactly zero at the truth for a clean,
@@ -96,7 +97,7 @@ struct TrackerOptions {
     v("weight_prior", weight_prior, "L2 prior lambda |w|^2 towards the neutral (0: off)");
     v("landmark_weight", landmark_weight,
       "weight of a 2D landmark term added to the segmentation cost, per squared pixel of "
-      "landmark error (0: off; needs target landmarks)");
+      "landmark error, over the 51 points off the jaw contour (0: off; needs target landmarks)");
     v("hard_residual", hard_residual,
       "residual of the hard render with the soft render's Jacobian (for aliased targets)");
     v("function_tolerance", function_tolerance, "relative cost decrease that stops a block");

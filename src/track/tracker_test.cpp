@@ -123,5 +123,31 @@ TEST_F(TrackerTest, LandmarkFitRecoversPose) {
   EXPECT_NEAR(r.weights[rig_->ShapeIndex("jawOpen")], 0.3f, 0.1f);
 }
 
+// The landmark term reads the 51 points off the jaw contour: moving the 17 jaw points of the
+// target changes nothing, moving the nose points does.
+TEST_F(TrackerTest, LandmarkTermLeavesTheJawContourOut) {
+  const rig::RigidPose truth_pose = render::FramedPose(*rig_, distance_, -0.05f, 0.2f);
+  const Eigen::VectorXf truth = Weights({{"jawOpen", 0.2f}});
+  const TrackTarget target = Target(truth_pose, truth);
+  ASSERT_EQ(target.landmarks.rows(), 68);
+  TrackerOptions options;
+  options.landmark_weight = 0.05f;
+  options.epochs = 1;
+  const Tracker tracker(*rig_, RigRegionColors(*rig_), options);
+  const Eigen::VectorXf start = Eigen::VectorXf::Zero(rig_->NumShapes());
+  auto solve = [&](int first, int last, float dy) {
+    TrackTarget moved = target;
+    for (int l = first; l <= last; ++l) moved.landmarks(l, 1) += dy;
+    return tracker.Solve(moved, truth_pose, start);
+  };
+  const TrackResult plain = solve(0, -1, 0.f);
+  const TrackResult jaw = solve(0, 16, 8.f);
+  const TrackResult nose = solve(27, 35, 8.f);
+  EXPECT_EQ(AngleDeg(plain.pose, jaw.pose), 0.0);
+  EXPECT_EQ((plain.weights - jaw.weights).cwiseAbs().maxCoeff(), 0.f);
+  EXPECT_GT(AngleDeg(plain.pose, nose.pose) + (plain.pose.translation - nose.pose.translation).norm(),
+            1e-3);
+}
+
 }  // namespace
 }  // namespace facecap::track
