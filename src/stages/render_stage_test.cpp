@@ -95,7 +95,8 @@ TEST_F(RenderMeshOut, GlbAndGltfReimportAsTheSameStaticMesh) {
 TEST_F(RenderMeshOut, OtherExtensionsAndSheetsAreUsageErrors) {
   auto bad = RunFacecap(Render("--mesh-out " + dir_.File("posed.stl")));
   EXPECT_EQ(bad.code, kExitUsage) << bad.output;
-  EXPECT_NE(bad.output.find("mesh_out must end in .obj, .glb or .gltf"), std::string::npos)
+  EXPECT_NE(bad.output.find("mesh_out '" + dir_.File("posed.stl") + "' must end in .obj, .glb, .gltf"),
+            std::string::npos)
       << bad.output;
   auto sheet = RunFacecap(Render("--sheet --mesh-out " + dir_.File("posed.obj")));
   EXPECT_EQ(sheet.code, kExitUsage) << sheet.output;
