@@ -2,26 +2,28 @@
 # Tracking of footage against its baselines, in the same run, on the outputs of the demo or
 # video job (frames.h5, translated.h5, person.h5 in OUT_DIR), rows side by side:
 #   landmarks only          the person's rig fitted to dlib's 68 landmarks (no deepfake)
-#   translations            inverse rendering of the deepfake's translations
-#   translations + lmk W    the same with the landmark term of weight W (LANDMARK_WEIGHTS)
+#   translations            inverse rendering of the deepfake's translations alone
+#   translations + lmk W    the same with the landmark term of weight W (LANDMARK_WEIGHTS; in
+#                           units of each point's noise that person fit measured; the track
+#                           stage's default is 0.5)
 # The demo (OUT_DIR holds clip.h5) is scored against the truth, with the neutral face's
 # figures beside; a real video is scored against a reference landmarker's JSON (REF_JSON, from
 # the ref_landmarks tools), held-out and trained frames apart.
 #
 #   analysis/footage_baselines.sh OUT_DIR [REF_JSON]
 #
-# Environment: RANKS (2), LANDMARK_WEIGHTS ("0.3 1 3"), FACECAP_BUILD_DIR (build/).
+# Environment: RANKS (2), LANDMARK_WEIGHTS ("0.5 1 2"), FACECAP_BUILD_DIR (build/).
 set -euo pipefail
 
 source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${FACECAP_BUILD_DIR:-${source_dir}/build}"
 facecap="${build_dir}/facecap"
 [[ -x "${facecap}" ]] || { echo "error: ${facecap} not built" >&2; exit 1; }
-[[ $# -ge 1 ]] || { sed -n '2,14p' "$0"; exit 2; }
+[[ $# -ge 1 ]] || { sed -n '2,16p' "$0"; exit 2; }
 out="$1"
 ref="${2:-}"
 ranks="${RANKS:-2}"
-weights="${LANDMARK_WEIGHTS:-0.3 1 3}"
+weights="${LANDMARK_WEIGHTS:-0.5 1 2}"
 for f in frames.h5 translated.h5 person.h5; do
   [[ -f "${out}/${f}" ]] || { echo "error: ${out}/${f} missing: run the demo or video job first" >&2; exit 3; }
 done
@@ -39,7 +41,7 @@ run() {
 common=(--rig "${out}/person.h5" --frames "${out}/frames.h5" --targets "${out}/translated.h5"
         --targets-dataset /frames/translated --init previous --weight-prior 30)
 declare -a names=("landmarks only" "translations")
-declare -a opts=("--objective landmarks" "")
+declare -a opts=("--objective landmarks" "--landmark-weight 0")
 for w in ${weights}; do
   names+=("translations + lmk ${w}")
   opts+=("--landmark-weight ${w}")

@@ -27,6 +27,7 @@
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
 #include "stages/ingested_frames.h"
+#include "stages/person_file.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
 #include "track/person_fit.h"
@@ -53,10 +54,11 @@ struct PersonFitStageOptions {
   // Where the refinement starts: "generic" (the generic head; the landmark fit is kept as a
   // baseline only) or "landmarks" (the landmark fit).
   std::string refine_from = "generic";
-  // The person's own landmark vertices: after the landmark phase, each of the 68 moves to the
-  // vertex within calibrate_radius_cm whose projections best match the frames' landmarks
-  // (render::CalibrateLandmarks); 0: the generic rig's.
-  float calibrate_radius_cm = 1.f;
+  // The person's own landmark vertices: each of the 68 moves to the vertex within
+  // calibrate_radius_cm whose projections best match the frames' landmarks
+  // (render::CalibrateLandmarks) at the frames' poses after the last round (the refinement's,
+  // or the landmark phase's without translations); 0: the generic rig's.
+  float calibrate_radius_cm = 1.5f;
   track::PersonFitOptions fit;
 
   template <class V>
@@ -73,9 +75,9 @@ struct PersonFitStageOptions {
     v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
     v("landmark_rounds", fit.landmark_rounds, "rounds of the fit to the landmarks");
     v("calibrate_radius_cm", calibrate_radius_cm,
-      "after the landmark phase, each landmark vertex moves to the vertex within this radius "
-      "(cm) that best matches the frames' landmarks: the person's own landmark positions "
-      "(0: the generic rig's)");
+      "after the last round, each landmark vertex moves to the vertex within this radius (cm) "
+      "that best matches the frames' landmarks at the frames' solved poses: the person's own "
+      "landmark positions, and their measured noise (0: the generic rig's, no noise)");
     v("refine_from", refine_from,
       "where the refinement starts: generic (the generic head; the landmark fit is kept as a "
       "baseline, /person/landmarks_only_neutral) or landmarks (the landmark fit)");
@@ -327,6 +329,57 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
   }
   const int64_t n = static_cast<int64_t>(chosen.size());
 
+  // The person's landmark vertices from the chosen frames at their current poses (rank 0).
+  const std::string calibrate_phase =
+      o.calibrate_radius_cm <= 0.f ? "" : (refine ? "the refinement" : "the landmark phase");
+  auto place_landmarks = [&](const Eigen::VectorXd& id, const std::string& phase) {
+    const rig::Rig fitted = fitter.WithNeutral(id);
+    const rig::RigEvaluator evaluator(fitted);
+    std::vector<render::CalibrationView> views(n);
+    for (int64_t k = 0; k < n; ++k) {
+      const rig::RigidPose pose = PoseFromRow(&state_pose[kPoseRow * k]);
+      const Eigen::VectorXf w = Eigen::Map<const Eigen::VectorXf>(&state_weights[S * k], S);
+      evaluator.EvaluatePosed(pose, w, &views[k].posed);
+      views[k].camera = frames.CropCamera(chosen[k], size).camera;
+      views[k].detected = frames.CropLandmarks(chosen[k], size);
+    }
+    const render::LandmarkCalibration c =
+        render::CalibrateLandmarks(fitted, views, o.calibrate_radius_cm);
+    person_landmarks.assign(c.landmarks.data(), c.landmarks.data() + 68);
+    double before = 0., after = 0.;
+    for (int l = 0; l < 68; ++l) {
+      before += c.error_before[l] / 68.;
+      after += c.error_after[l] / 68.;
+    }
+    FC_INFO("person fit: the person's landmark vertices at the poses of {}: mean distance to the "
+            "frames' landmarks {:.4f} -> {:.4f} of the eye-corner distance", phase, before, after);
+    // Each landmark's noise: RMS distance of the frames' detected point to the placed vertex's
+    // projection, in pixels of the crop.
+    std::vector<double> noise(68, 0.);
+    double inner = 0.;
+    for (int l = 0; l < 68; ++l) {
+      for (int64_t k = 0; k < n; ++k) {
+        const Eigen::Vector3f x = views[k].posed.row(c.landmarks[l]).transpose();
+        noise[l] += (views[k].camera.Project(x).head<2>() - views[k].detected.row(l).transpose())
+                        .squaredNorm();
+      }
+      if (l >= 17) inner += noise[l] / (51. * n);
+      noise[l] = std::sqrt(noise[l] / n);
+    }
+    FC_INFO("person fit: the landmarks' noise off the jaw: {:.3f} px RMS of a {}-pixel crop",
+            std::sqrt(inner), size);
+    output.file.WriteVector("/person/landmarks", person_landmarks);
+    output.file.SetAttribute("/person/landmarks", "meaning",
+                             std::string("the person's 68 landmark vertices (the rig's "
+                                         "/rig/landmarks), placed at the poses of ") + phase);
+    output.file.WriteVector<double>(std::string(kLandmarkNoisePath), noise);
+    output.file.SetAttribute(kLandmarkNoisePath, "meaning",
+                             std::string("per landmark, the RMS distance of the detected point to "
+                                         "the projection of the person's landmark vertex at the "
+                                         "poses of ") + phase);
+    output.file.SetAttribute(kLandmarkNoisePath, "crop_size", static_cast<int64_t>(size));
+  };
+
   // Rounds.
   std::vector<double> round_cost;
   for (int64_t round = rounds_done; round < rounds; ++round) {
@@ -372,33 +425,7 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
     // Rank 0 takes the step from the contributions in frame order, checkpoints, and shares.
     dist::CoordinateExceptions(comm, [&] {
       if (!comm.IsMainRank()) return;
-      if (round + 1 == o.fit.landmark_rounds && o.calibrate_radius_cm > 0.f) {
-        // The person's landmark vertices, from the frames as the landmark phase solved them.
-        const rig::Rig fitted = fitter.WithNeutral(identity);
-        const rig::RigEvaluator evaluator(fitted);
-        std::vector<render::CalibrationView> views(n);
-        for (int64_t k = 0; k < n; ++k) {
-          const rig::RigidPose pose = PoseFromRow(&state_pose[kPoseRow * k]);
-          const Eigen::VectorXf w = Eigen::Map<const Eigen::VectorXf>(&state_weights[S * k], S);
-          evaluator.EvaluatePosed(pose, w, &views[k].posed);
-          views[k].camera = frames.CropCamera(chosen[k], size).camera;
-          views[k].detected = frames.CropLandmarks(chosen[k], size);
-        }
-        const render::LandmarkCalibration c =
-            render::CalibrateLandmarks(fitted, views, o.calibrate_radius_cm);
-        person_landmarks.assign(c.landmarks.data(), c.landmarks.data() + 68);
-        double before = 0., after = 0.;
-        for (int l = 0; l < 68; ++l) {
-          before += c.error_before[l] / 68.;
-          after += c.error_after[l] / 68.;
-        }
-        FC_INFO("person fit: the person's landmark vertices: mean distance to the frames' "
-                "landmarks {:.4f} -> {:.4f} of the eye-corner distance", before, after);
-        output.file.WriteVector("/person/landmarks", person_landmarks);
-        output.file.SetAttribute("/person/landmarks", "meaning",
-                                 std::string("the person's 68 landmark vertices (the rig's "
-                                             "/rig/landmarks), placed after the landmark phase"));
-      }
+      if (round + 1 == rounds && !calibrate_phase.empty()) place_landmarks(identity, calibrate_phase);
       identity = fitter.Step(identity, &contributions, refining);
       double cost = 0., rms = 0.;
       for (const auto& c : contributions) {

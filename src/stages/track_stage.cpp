@@ -9,6 +9,7 @@
 #include "io/rig_io.h"
 #include "render/framing.h"
 #include "stages/ingested_frames.h"
+#include "stages/person_file.h"
 #include "rig/arkit.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
@@ -24,6 +25,14 @@ namespace {
 
 // /track/termination of a frame without a face (Ceres's codes are 0-2).
 constexpr int32_t kNoTarget = 3;
+
+// The solver's settings as the track stage defaults them: the landmark term on, at half the
+// weight of each point's measured noise.
+track::TrackerOptions TrackStageSolverDefaults() {
+  track::TrackerOptions t;
+  t.landmark_weight = 0.5f;
+  return t;
+}
 
 // [track]
 struct TrackOptions {
@@ -49,7 +58,7 @@ struct TrackOptions {
   int count = 0;                          // frames to track from the first (0: all)
   int batch = 16;                         // work units per rank per round (a checkpoint each)
   int threads = 0;                        // OpenMP threads per rank (0: cores / node ranks)
-  track::TrackerOptions tracker;          // the solver
+  track::TrackerOptions tracker = TrackStageSolverDefaults();  // the solver
 
   template <class V>
   void Visit(V&& v) {
@@ -178,12 +187,11 @@ void RunTrack(const StageFlags& flags, AppState* state) {
         throw FileIOError(o.rig + ": tracking crops of footage needs the rig's 68 landmarks");
       }
       info.found = ingested.found();
-    } else if ((o.init == "landmarks" || o.tracker.objective == "landmarks" ||
-                o.tracker.landmark_weight > 0.f) &&
+    } else if ((o.init == "landmarks" || o.tracker.objective == "landmarks") &&
                info.landmarks.empty()) {
-      throw FileIOError(o.targets + ": init, objective or landmark_weight with landmarks needs a "
-                        "landmarks dataset beside " + info.images + " (or name the ingest output "
-                        "with frames)");
+      throw FileIOError(o.targets + ": init or objective with landmarks needs a landmarks "
+                        "dataset beside " + info.images + " (or name the ingest output with "
+                        "frames)");
     }
   });
   const int64_t frames = o.count > 0 ? std::min<int64_t>(o.count, info.frames) : info.frames;
@@ -201,7 +209,29 @@ void RunTrack(const StageFlags& flags, AppState* state) {
   const std::vector<Eigen::Vector3f> seg_colors = track::RigRegionColors(rig);
   const std::vector<Eigen::Vector3f> model_colors =
       o.texture == "skin" ? track::SkinRegionColors(rig) : seg_colors;
-  const track::Tracker tracker(rig, model_colors, o.tracker);
+  // The landmark term in units of each point's noise that person fit measured for the rig.
+  // The term fits the landmarks a detector found in footage (frames); targets of their own
+  // (rig samples) are tracked without it.
+  track::TrackerOptions tracker_options = o.tracker;
+  if (!crops) tracker_options.landmark_weight = 0.f;
+  if (tracker_options.landmark_weight > 0.f) {
+    LandmarkNoise noise;
+    dist::CoordinateExceptions(comm, [&] { noise = ReadLandmarkNoise(o.rig); });
+    if (!noise.px.empty()) {
+      tracker_options.landmark_point_weights.resize(68);
+      double inner = 0.;
+      for (int l = 0; l < 68; ++l) {
+        const double sigma = noise.AtSize(l, info.width);
+        tracker_options.landmark_point_weights[l] = static_cast<float>(1. / (sigma * sigma));
+        if (l >= 17) inner += sigma * sigma / 51.;
+      }
+      if (comm.IsMainRank()) {
+        FC_INFO("track: the landmark term weighs each point by its inverse squared noise (person "
+                "fit's; {:.3f} px RMS off the jaw at {} pixels)", std::sqrt(inner), info.width);
+      }
+    }
+  }
+  const track::Tracker tracker(rig, model_colors, tracker_options);
 
   ResumableOutput output;
   std::vector<int64_t> pending;

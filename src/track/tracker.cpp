@@ -39,6 +39,18 @@ bool TrackerOptions::Check(std::string* why) const {
     *why = "landmark_weight must be in [0, 1e6)";
     return false;
   }
+  if (!landmark_point_weights.empty()) {
+    if (landmark_point_weights.size() != 68) {
+      *why = "landmark_point_weights must hold 68 weights";
+      return false;
+    }
+    for (float w : landmark_point_weights) {
+      if (!(w >= 0.f && w < 1e6f)) {
+        *why = "landmark_point_weights must be in [0, 1e6)";
+        return false;
+      }
+    }
+  }
   if (!(function_tolerance > 0.)) {
     *why = "function_tolerance must be positive";
     return false;
@@ -174,9 +186,11 @@ struct Tracker::Impl {
     return sum;
   }
 
-  // Landmark reprojection error |proj(X_l) - l|^2 over the visible landmarks from `first` on.
+  // Landmark reprojection error sum_l omega_l |proj(X_l) - l|^2 over the visible landmarks
+  // from `first` on; omega_l from `point_weights` (empty: 1).
   double Landmarks(const Eigen::VectorXf& full, const std::vector<int>* columns,
-                   Eigen::MatrixXd* normal, Eigen::VectorXd* gradient, int first = 0) {
+                   Eigen::MatrixXd* normal, Eigen::VectorXd* gradient, int first = 0,
+                   const std::vector<float>& point_weights = {}) {
     rig::RigidPose pose;
     Eigen::VectorXf weights;
     Unpack(full, &pose, &weights);
@@ -203,8 +217,9 @@ struct Tracker::Impl {
       if (!target.landmark_visible.empty() && !target.landmark_visible[l]) continue;
       const Eigen::Vector3f x = positions.row(l).transpose();
       const Eigen::Vector3f uvd = cam.Project(x);
+      const float omega = point_weights.empty() ? 1.f : point_weights[l];
       const Eigen::Vector2f r = uvd.head<2>() - target.landmarks.row(l).transpose();
-      sum += r.squaredNorm();
+      sum += omega * r.squaredNorm();
       if (!normal) continue;
       const float z = x.z();
       Eigen::Matrix<float, 2, 3> dp;
@@ -215,8 +230,8 @@ struct Tracker::Impl {
         jl.col(k) = dp * vertex_jacobian.block<3, 1>(3 * l, (*columns)[k]);
       }
       const Eigen::MatrixXd jd = jl.cast<double>();
-      *normal += jd.transpose() * jd;
-      *gradient += jd.transpose() * r.cast<double>();
+      *normal += omega * (jd.transpose() * jd);
+      *gradient += omega * (jd.transpose() * r.cast<double>());
     }
     return sum;
   }
@@ -233,7 +248,8 @@ struct Tracker::Impl {
       // the turned head, which no fixed vertex follows, and fitting them tilts the head.
       const int first = target.landmarks.rows() == 68 ? 17 : 0;
       sum += lambda * Landmarks(full, columns, normal ? &lm_normal : nullptr,
-                                normal ? &lm_gradient : nullptr, first);
+                                normal ? &lm_gradient : nullptr, first,
+                                tracker.options_.landmark_point_weights);
       if (normal) {
         *normal += lambda * lm_normal;
         *gradient += lambda * lm_gradient;

@@ -69,6 +69,10 @@ struct TrackerOptions {
   // pixels of the target image; it scales with the pixel count like the prior); 0: off, and
   // ignored for a target without landmarks.
   float landmark_weight = 0.f;
+  // omega_l: the landmark term's weight of each of the 68 points, lambda_L sum_l omega_l
+  // |proj(X_l) - l|^2 (empty: 1 each). Set by the caller (track: the inverse squared noise of
+  // each point that person fit measured), not an option of job files.
+  std::vector<float> landmark_point_weights;
   // Residual colours: false compares the soft render F_seg with the target (consistent cost
   // and derivative); true compares the hard render (exactly zero at the truth for a clean,
   // aliased target) and uses the soft render's derivative as its Gauss-Newton Jacobian.
@@ -96,8 +100,10 @@ struct TrackerOptions {
     v("solve_scale", solve_scale, "solve the uniform scale of the rigid pose");
     v("weight_prior", weight_prior, "L2 prior lambda |w|^2 towards the neutral (0: off)");
     v("landmark_weight", landmark_weight,
-      "weight of a 2D landmark term added to the segmentation cost, per squared pixel of "
-      "landmark error, over the 51 points off the jaw contour (0: off; needs target landmarks)");
+      "weight of a 2D landmark term added to the segmentation cost over the 51 points off the "
+      "jaw contour, per squared landmark error in units of each point's noise (the noise "
+      "person fit measured for the rig, else 1 pixel; 0: off; track: the detected landmarks "
+      "of footage, with frames)");
     v("hard_residual", hard_residual,
       "residual of the hard render with the soft render's Jacobian (for aliased targets)");
     v("function_tolerance", function_tolerance, "relative cost decrease that stops a block");
