@@ -3,6 +3,7 @@
 // crop transforms aligned as ingest aligns them) and the person's segmentation seen through
 // each crop's camera. Tested: tracking in the crops' cameras and the landmark export back in
 // source pixels; the person fit's identity, its rank independence and its restart.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -23,6 +24,7 @@
 #include "rig/demo_head.h"
 #include "rig/evaluate.h"
 #include "stages/ingested_frames.h"
+#include "stages/person_file.h"
 #include "testing/testing.h"
 
 namespace facecap::stages {
@@ -267,6 +269,58 @@ TEST_F(PersonFit, RecoversAKnownIdentityFromItsOwnRenders) {
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("\"template_vertex_rms_over_iod\""), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("\"landmarks_only_vertex_rms_over_iod\""), std::string::npos);
+}
+
+// Person fit records each landmark's noise against the person's landmark vertices; track's
+// landmark term is in units of it: doubling every recorded noise and quadrupling the weight
+// gives the same track, and the term moves the solve.
+TEST_F(PersonFit, TrackWeighsTheLandmarkTermByTheRecordedNoise) {
+  auto r = RunFacecap(Args(File("person_noise.h5")), 2);
+  ASSERT_EQ(r.code, 0) << r.output;
+  const LandmarkNoise noise = ReadLandmarkNoise(File("person_noise.h5"));
+  ASSERT_EQ(noise.px.size(), 68u);
+  EXPECT_EQ(noise.crop_size, kTarget);
+  // The footage's landmarks are the person's own projected landmarks: the noise is sub-pixel.
+  double inner = 0.;
+  for (int l = 17; l < 68; ++l) inner += noise.px[l] * noise.px[l] / 51.;
+  EXPECT_LT(std::sqrt(inner), 1.0);
+  std::filesystem::copy_file(File("person_noise.h5"), File("person_noise2.h5"));
+  {
+    io::H5File f = io::H5File::OpenReadWrite(File("person_noise2.h5"));
+    std::vector<double> doubled = noise.px;
+    for (double& v : doubled) v *= 2.;
+    f.WriteVector(kLandmarkNoisePath, doubled);
+    f.SetAttribute(kLandmarkNoisePath, "crop_size", static_cast<int64_t>(kTarget));
+  }
+  ASSERT_EQ(ReadLandmarkNoise(File("person_noise2.h5")).px[20], 2. * noise.px[20]);
+  auto track = [&](const std::string& rig, const std::string& weight, const std::string& out) {
+    auto t = RunFacecap("track --rig " + File(rig) + " --frames " + File("frames.h5") +
+                        " --targets " + File("translated.h5") + " --targets-dataset "
+                        "/frames/translated --init previous --levels 1 --epochs 2 "
+                        "--landmark-weight " + weight + " --out " + File(out), 2);
+    EXPECT_EQ(t.code, 0) << t.output;
+    return io::H5File::OpenRead(File(out)).Read<float>("/track/pose", {});
+  };
+  const std::vector<float> once = track("person_noise.h5", "0.5", "track_noise1.h5");
+  const std::vector<float> doubled = track("person_noise2.h5", "2", "track_noise2.h5");
+  const std::vector<float> without = track("person_noise.h5", "0", "track_noise0.h5");
+  ASSERT_EQ(once.size(), doubled.size());
+  for (size_t i = 0; i < once.size(); ++i) EXPECT_NEAR(once[i], doubled[i], 1e-5f) << i;
+  double moved = 0.;
+  for (size_t i = 0; i < once.size(); ++i) moved = std::max(moved, std::abs(double(once[i]) - without[i]));
+  EXPECT_GT(moved, 1e-4);
+  // A recorded noise that is not one positive value per landmark is an error naming the file.
+  {
+    io::H5File f = io::H5File::OpenReadWrite(File("person_noise2.h5"));
+    f.WriteVector(kLandmarkNoisePath, std::vector<double>(67, 1.));
+    f.SetAttribute(kLandmarkNoisePath, "crop_size", static_cast<int64_t>(kTarget));
+  }
+  r = RunFacecap("track --rig " + File("person_noise2.h5") + " --frames " + File("frames.h5") +
+                 " --targets " + File("translated.h5") + " --targets-dataset /frames/translated "
+                 "--out " + File("track_bad.h5"));
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_NE(r.output.find("person_noise2.h5"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("landmark_noise_px"), std::string::npos) << r.output;
 }
 
 TEST_F(PersonFit, OneAndThreeRanksGiveTheSameIdentity) {

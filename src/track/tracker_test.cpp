@@ -149,5 +149,49 @@ TEST_F(TrackerTest, LandmarkTermLeavesTheJawContourOut) {
             1e-3);
 }
 
+// Each point counts by its weight omega_l: a point of weight 0 does not move the solve, and
+// scaling lambda_L by c and every omega_l by 1/c gives the same solve.
+TEST_F(TrackerTest, LandmarkPointWeightsScaleEachPoint) {
+  const rig::RigidPose truth_pose = render::FramedPose(*rig_, distance_, -0.05f, 0.2f);
+  const Eigen::VectorXf truth = Weights({{"jawOpen", 0.2f}});
+  TrackTarget target = Target(truth_pose, truth);
+  ASSERT_EQ(target.landmarks.rows(), 68);
+  for (int l = 27; l <= 35; ++l) target.landmarks(l, 1) += 8.f;  // the nose moved down
+  const Eigen::VectorXf start = Eigen::VectorXf::Zero(rig_->NumShapes());
+  auto solve = [&](float lambda, const std::vector<float>& omega) {
+    TrackerOptions options;
+    options.landmark_weight = lambda;
+    options.landmark_point_weights = omega;
+    options.epochs = 1;
+    std::string why;
+    EXPECT_TRUE(options.Check(&why)) << why;
+    const Tracker tracker(*rig_, RigRegionColors(*rig_), options);
+    return tracker.Solve(target, truth_pose, start);
+  };
+  std::vector<float> nose_off(68, 1.f), halved(68, 0.5f);
+  for (int l = 27; l <= 35; ++l) nose_off[l] = 0.f;
+  TrackTarget unmoved = Target(truth_pose, truth);
+  TrackerOptions plain_options;
+  plain_options.landmark_weight = 0.05f;
+  plain_options.landmark_point_weights = nose_off;
+  plain_options.epochs = 1;
+  const Tracker plain_tracker(*rig_, RigRegionColors(*rig_), plain_options);
+  const TrackResult unmoved_solve = plain_tracker.Solve(unmoved, truth_pose, start);
+  const TrackResult off = solve(0.05f, nose_off);
+  EXPECT_NEAR(AngleDeg(unmoved_solve.pose, off.pose), 0.0, 1e-4);
+  EXPECT_LT((unmoved_solve.weights - off.weights).cwiseAbs().maxCoeff(), 1e-4f);
+  const TrackResult all = solve(0.05f, {});
+  EXPECT_GT(AngleDeg(all.pose, off.pose) + (all.pose.translation - off.pose.translation).norm(), 1e-3);
+  const TrackResult scaled = solve(0.1f, halved);
+  EXPECT_NEAR(AngleDeg(all.pose, scaled.pose), 0.0, 1e-3);
+  EXPECT_LT((all.weights - scaled.weights).cwiseAbs().maxCoeff(), 1e-3f);
+  TrackerOptions bad;
+  bad.landmark_point_weights.assign(67, 1.f);
+  std::string why;
+  EXPECT_FALSE(bad.Check(&why));
+  bad.landmark_point_weights.assign(68, -1.f);
+  EXPECT_FALSE(bad.Check(&why));
+}
+
 }  // namespace
 }  // namespace facecap::track
