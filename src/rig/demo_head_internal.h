@@ -336,6 +336,17 @@ class ShapeMaker {
   float BrowWeight(const Eigen::Vector3f& p, float centre_offset, float width) const;
 
   Shape Make(const std::string& name) const;
+  // The groups of shapes that Make calls in turn: each fills s when `name` is one of its shapes
+  // and leaves it as it is otherwise. `base` is the name without its Left / Right suffix and
+  // `right` is true for a Right shape.
+  void MakeEyeShape(const std::string& name, const std::string& base, bool right, Shape& s) const;
+  void MakeJawShape(const std::string& name, const std::string& base, bool right, Shape& s) const;
+  void MakeMouthShape(const std::string& name, const std::string& base, bool right, Shape& s) const;
+  void MakeOneLipShape(const std::string& name, const std::string& base, bool right,
+                       Shape& s) const;
+  void MakeBrowShape(const std::string& name, const std::string& base, bool right, Shape& s) const;
+  void MakeCheekNoseTongueShape(const std::string& name, const std::string& base, bool right,
+                                Shape& s) const;
 
   const HeadBuilder& b_;
   const HeadSurface& hs_;

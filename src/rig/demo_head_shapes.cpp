@@ -95,18 +95,12 @@ float ShapeMaker::BrowWeight(const Eigen::Vector3f& p, float centre_offset, floa
          Gauss((p.y() - hs_.BrowLineY(std::abs(p.x())) - 0.2f) / 1.3f) * Front(p);
 }
 
-Shape ShapeMaker::Make(const std::string& name) const {
-  Shape s;
-  s.name = name;
-  const bool right = name.size() > 5 && name.compare(name.size() - 5, 5, "Right") == 0;
-  const std::string base = right ? name.substr(0, name.size() - 5)
-                                 : (name.size() > 4 && name.compare(name.size() - 4, 4, "Left") == 0
-                                        ? name.substr(0, name.size() - 4)
-                                        : name);
+// Eyes: the head rebuilt with another lid state and, for the look shapes, a turned eyeball.
+void ShapeMaker::MakeEyeShape(const std::string& name, const std::string& base, bool right,
+                              Shape& s) const {
   const int side = right ? 1 : 0;
   const float look = options_.eye_look_degrees * kPi / 180.f;
   const Eigen::Matrix3f identity = Eigen::Matrix3f::Identity();
-  // Eyes.
   if (base == "eyeBlink") {
     s.delta = ToSparse(LidDelta(side, {1.f, 1.f, 1.f}, identity));
   } else if (base == "eyeSquint") {
@@ -131,8 +125,12 @@ Shape ShapeMaker::Make(const std::string& name) const {
     s.delta = ToSparse(LidDelta(side, {1.f, 1.f, 0.f},
                                 EulerXyz(Eigen::Vector3f(0.f, sign * look, 0.f))));
   }
-  // Jaw: skinning only (R_i, T_i), no de-skinned delta.
-  else if (name == "jawOpen") {
+}
+
+// Jaw: skinning only (R_i, T_i), no de-skinned delta.
+void ShapeMaker::MakeJawShape(const std::string& name, const std::string& base, bool right,
+                              Shape& s) const {
+  if (name == "jawOpen") {
     s.jaw_euler = Eigen::Vector3f(options_.jaw_open_degrees * kPi / 180.f, 0.f, 0.f);
     s.jaw_translation = Eigen::Vector3f(0.f, 0.f, 0.15f);
   } else if (name == "jawForward") {
@@ -141,7 +139,13 @@ Shape ShapeMaker::Make(const std::string& name) const {
     const float sign = name == "jawLeft" ? 1.f : -1.f;
     s.jaw_euler = Eigen::Vector3f(0.f, sign * 0.1f, 0.f);
     s.jaw_translation = Eigen::Vector3f(sign * 0.35f, 0.f, 0.f);
-  } else if (name == "mouthClose") {
+  }
+}
+
+// Mouth: shapes of the whole mouth and of its corners.
+void ShapeMaker::MakeMouthShape(const std::string& name, const std::string& base, bool right,
+                                Shape& s) const {
+  if (name == "mouthClose") {
     // Undo the jawOpen rotation on the lower lip (de-skinned), so that jawOpen + mouthClose
     // keeps the lips together: D = f (R^T (N - pivot - T) + pivot - N).
     const Eigen::Matrix3f r = EulerXyz(Eigen::Vector3f(options_.jaw_open_degrees * kPi / 180.f, 0, 0));
@@ -196,7 +200,13 @@ Shape ShapeMaker::Make(const std::string& name) const {
       const float w = LipWeight(p, 0.8f) * LeftSide(p);
       return Eigen::Vector3f(0.f, f.below_mouth ? 0.15f : -0.12f, -0.18f) * w;
     }, right));
-  } else if (base == "mouthLowerDown") {
+  }
+}
+
+// Mouth: shapes that move one lip.
+void ShapeMaker::MakeOneLipShape(const std::string& name, const std::string& base, bool right,
+                                 Shape& s) const {
+  if (base == "mouthLowerDown") {
     s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts& f) -> Eigen::Vector3f {
       if (!f.below_mouth) return Eigen::Vector3f::Zero().eval();
       const float w = LipWeight(p, 1.3f) * LeftSide(p);
@@ -228,8 +238,12 @@ Shape ShapeMaker::Make(const std::string& name) const {
              Gauss((p.y() - hs_.MouthY() - 0.5f) / 0.9f) * Front(p);
     }, false));
   }
-  // Brows.
-  else if (base == "browDown") {
+}
+
+// Brows.
+void ShapeMaker::MakeBrowShape(const std::string& name, const std::string& base, bool right,
+                               Shape& s) const {
+  if (base == "browDown") {
     s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
       return Eigen::Vector3f(-0.12f, -0.45f, 0.06f) * BrowWeight(p, -0.4f, 1.8f);
     }, right));
@@ -243,8 +257,12 @@ Shape ShapeMaker::Make(const std::string& name) const {
       return Eigen::Vector3f(0.f, 0.55f, 0.f) * BrowWeight(p, 1.3f, 1.3f);
     }, right));
   }
-  // Cheeks and nose.
-  else if (name == "cheekPuff") {
+}
+
+// Cheeks and nose, and the tongue.
+void ShapeMaker::MakeCheekNoseTongueShape(const std::string& name, const std::string& base,
+                                          bool right, Shape& s) const {
+  if (name == "cheekPuff") {
     s.delta = ToSparse(FieldDelta([&](const Eigen::Vector3f& p, const VertexFacts&) -> Eigen::Vector3f {
       const float w = Gauss((std::abs(p.x()) - 4.0f) / 1.6f) *
                       Gauss((p.y() - hs_.MouthY() - 1.0f) / 1.8f) * Front(p);
@@ -274,6 +292,23 @@ Shape ShapeMaker::Make(const std::string& name) const {
              Gauss((p.y() - hs_.MouthY() + 0.45f) / 0.7f) * Front(p);
     }, false));
   }
+}
+
+Shape ShapeMaker::Make(const std::string& name) const {
+  Shape s;
+  s.name = name;
+  const bool right = name.size() > 5 && name.compare(name.size() - 5, 5, "Right") == 0;
+  const std::string base = right ? name.substr(0, name.size() - 5)
+                                 : (name.size() > 4 && name.compare(name.size() - 4, 4, "Left") == 0
+                                        ? name.substr(0, name.size() - 4)
+                                        : name);
+  // No name is in two groups, so one group at most fills s; a name in none has no motion.
+  MakeEyeShape(name, base, right, s);
+  MakeJawShape(name, base, right, s);
+  MakeMouthShape(name, base, right, s);
+  MakeOneLipShape(name, base, right, s);
+  MakeBrowShape(name, base, right, s);
+  MakeCheekNoseTongueShape(name, base, right, s);
   return s;
 }
 

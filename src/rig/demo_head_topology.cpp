@@ -363,203 +363,261 @@ float HairLineY(const HeadSurface& hs, float theta) {
                deg);
 }
 
-}  // namespace
+// Builds the triangles (with their UV triangles and regions) and the UVs of one head, part by
+// part, in the order MakeTopology calls the parts.
+class TopologyMaker {
+ public:
+  TopologyMaker(const HeadBuilder& builder, const Vertices& neutral);
 
-MeshTopology MakeTopology(const HeadBuilder& builder, const Vertices& neutral) {
-  const Layout& l = builder.GetLayout();
-  const HeadSurface& hs = builder.Surface();
-  std::vector<Eigen::Vector3i> tris, uvtris;
-  std::vector<int> region;
-  std::vector<Eigen::Vector2f> uvs(l.num_vertices, Eigen::Vector2f::Zero());
+  void PlaceHeadUvs();
+  void AddSkinGrid();
+  void AddPoles();
+  void AddPockets();
+  void AddEyeballs();
+  void PlacePartUvs();
+  MeshTopology Finish() const;
 
-  // Head UVs: u by column (seam at the back), v by the front arc length of the (warped) row.
-  // Per-vertex v from the neutral height keeps the eye openings open in UV space too.
-  const int seam_uv_begin = l.num_vertices;           // u = 1 copies of column 0, per row
-  const int pole_uv_begin = seam_uv_begin + l.rows;   // per column: top then bottom
-  uvs.resize(pole_uv_begin + 2 * l.cols, Eigen::Vector2f::Zero());
-  const float y_top = neutral(l.top_pole, 1), y_bottom = neutral(l.bottom_pole, 1);
+ private:
+  int UvOf(int i, int j, int vertex) const { return j == l_.cols ? seam_uv_begin_ + i : vertex; }
+  void Add(int a, int b, int c, int ua, int ub, int uc, int reg);
+  RegionId SkinRegion(int i, int j, const Eigen::Vector3f& centre) const;
+  void AddPocket(const std::vector<int>& loop, int ring_begin, int rings, int reg);
+  void PlaceBoxUvs(int begin, int count, float u0);
+
+  const HeadBuilder& builder_;
+  const Layout& l_;
+  const HeadSurface& hs_;
+  const Vertices& neutral_;
+  std::vector<Eigen::Vector3i> tris_, uvtris_;
+  std::vector<int> region_;
+  std::vector<Eigen::Vector2f> uvs_;
+  const int seam_uv_begin_;  // u = 1 copies of column 0, per row
+  const int pole_uv_begin_;  // per column: top then bottom
+};
+
+TopologyMaker::TopologyMaker(const HeadBuilder& builder, const Vertices& neutral)
+    : builder_(builder), l_(builder.GetLayout()), hs_(builder.Surface()), neutral_(neutral),
+      uvs_(l_.num_vertices, Eigen::Vector2f::Zero()), seam_uv_begin_(l_.num_vertices),
+      pole_uv_begin_(seam_uv_begin_ + l_.rows) {}
+
+// Head UVs: u by column (seam at the back), v by the front arc length of the (warped) row.
+// Per-vertex v from the neutral height keeps the eye openings open in UV space too.
+void TopologyMaker::PlaceHeadUvs() {
+  uvs_.resize(pole_uv_begin_ + 2 * l_.cols, Eigen::Vector2f::Zero());
+  const float y_top = neutral_(l_.top_pole, 1), y_bottom = neutral_(l_.bottom_pole, 1);
   auto head_v = [&](int vertex) {
-    const float y = neutral(vertex, 1);
+    const float y = neutral_(vertex, 1);
     return 0.22f + 0.76f * (y - y_bottom) / (y_top - y_bottom);
   };
-  for (int i = 0; i < l.rows; ++i) {
-    for (int j = 0; j < l.cols; ++j) {
+  for (int i = 0; i < l_.rows; ++i) {
+    for (int j = 0; j < l_.cols; ++j) {
       for (bool below : {false, true}) {
-        const int vtx = l.Vertex(i, j, below);
-        uvs[vtx] = Eigen::Vector2f(static_cast<float>(j) / l.cols, head_v(vtx));
+        const int vtx = l_.Vertex(i, j, below);
+        uvs_[vtx] = Eigen::Vector2f(static_cast<float>(j) / l_.cols, head_v(vtx));
       }
     }
-    uvs[seam_uv_begin + i] = Eigen::Vector2f(1.f, head_v(l.Grid(i, 0)));
+    uvs_[seam_uv_begin_ + i] = Eigen::Vector2f(1.f, head_v(l_.Grid(i, 0)));
   }
-  for (int j = 0; j < l.cols; ++j) {
-    uvs[pole_uv_begin + 2 * j] = Eigen::Vector2f((j + 0.5f) / l.cols, 0.98f);
-    uvs[pole_uv_begin + 2 * j + 1] = Eigen::Vector2f((j + 0.5f) / l.cols, 0.22f);
+  for (int j = 0; j < l_.cols; ++j) {
+    uvs_[pole_uv_begin_ + 2 * j] = Eigen::Vector2f((j + 0.5f) / l_.cols, 0.98f);
+    uvs_[pole_uv_begin_ + 2 * j + 1] = Eigen::Vector2f((j + 0.5f) / l_.cols, 0.22f);
   }
-  auto uv_of = [&](int i, int j, int vertex) {
-    return j == l.cols ? seam_uv_begin + i : vertex;
-  };
+}
 
-  auto add = [&](int a, int b, int c, int ua, int ub, int uc, int reg) {
-    tris.emplace_back(a, b, c);
-    uvtris.emplace_back(ua, ub, uc);
-    region.push_back(reg);
-  };
+void TopologyMaker::Add(int a, int b, int c, int ua, int ub, int uc, int reg) {
+  tris_.emplace_back(a, b, c);
+  uvtris_.emplace_back(ua, ub, uc);
+  region_.push_back(reg);
+}
 
-  // Region of a skin quad (rows i, i+1; columns j, j+1) from its neutral centre.
-  auto skin_region = [&](int i, int j, const Eigen::Vector3f& centre) {
-    const float x = centre.x(), y = centre.y();
-    const float theta_a = builder.ColumnTheta(i, j);
-    const float theta_b = j + 1 == l.cols ? kPi : builder.ColumnTheta(i, j + 1);
-    const float theta = 0.5f * (theta_a + theta_b);
-    for (int side = 0; side < 2; ++side) {
-      if (j >= l.EyeLo(side) && j < l.EyeHi(side)) {
-        const float u = 0.5f * (builder.EyeFraction(j) + builder.EyeFraction(j + 1));
-        const float margin_up = hs.EyeY() + builder.UpperOpening(u);
-        const float margin_low = hs.EyeY() - builder.LowerOpening(u);
-        if (i < l.row_eye && (i == l.row_eye - 1 || y < margin_up + 0.55f + 0.15f * std::sin(kPi * u))) {
-          if (i >= l.row_eye - 6) return side == 0 ? kLeftUpperLid : kRightUpperLid;
-        }
-        if (i >= l.row_eye && (i == l.row_eye || y > margin_low - 0.45f)) {
-          if (i <= l.row_eye + 4) return side == 0 ? kLeftLowerLid : kRightLowerLid;
-        }
+// Region of a skin quad (rows i, i+1; columns j, j+1) from its neutral centre.
+RegionId TopologyMaker::SkinRegion(int i, int j, const Eigen::Vector3f& centre) const {
+  const float x = centre.x(), y = centre.y();
+  const float theta_a = builder_.ColumnTheta(i, j);
+  const float theta_b = j + 1 == l_.cols ? kPi : builder_.ColumnTheta(i, j + 1);
+  const float theta = 0.5f * (theta_a + theta_b);
+  for (int side = 0; side < 2; ++side) {
+    if (j >= l_.EyeLo(side) && j < l_.EyeHi(side)) {
+      const float u = 0.5f * (builder_.EyeFraction(j) + builder_.EyeFraction(j + 1));
+      const float margin_up = hs_.EyeY() + builder_.UpperOpening(u);
+      const float margin_low = hs_.EyeY() - builder_.LowerOpening(u);
+      if (i < l_.row_eye &&
+          (i == l_.row_eye - 1 || y < margin_up + 0.55f + 0.15f * std::sin(kPi * u))) {
+        if (i >= l_.row_eye - 6) return side == 0 ? kLeftUpperLid : kRightUpperLid;
+      }
+      if (i >= l_.row_eye && (i == l_.row_eye || y > margin_low - 0.45f)) {
+        if (i <= l_.row_eye + 4) return side == 0 ? kLeftLowerLid : kRightLowerLid;
       }
     }
-    const float ax = std::abs(x);
-    const float ex = hs.Params().eye_half_spacing;
-    if (centre.z() > 0.f && ax > ex - 2.0f && ax < ex + 2.1f) {
-      const float u = (ax - (ex - 2.0f)) / 4.1f;
-      const float half = Lerp(0.42f, 0.2f, u);
-      if (std::abs(y - hs.BrowLineY(ax)) < half) return x > 0.f ? kLeftBrow : kRightBrow;
+  }
+  const float ax = std::abs(x);
+  const float ex = hs_.Params().eye_half_spacing;
+  if (centre.z() > 0.f && ax > ex - 2.0f && ax < ex + 2.1f) {
+    const float u = (ax - (ex - 2.0f)) / 4.1f;
+    const float half = Lerp(0.42f, 0.2f, u);
+    if (std::abs(y - hs_.BrowLineY(ax)) < half) return x > 0.f ? kLeftBrow : kRightBrow;
+  }
+  if (j >= l_.MouthLo() && j < l_.MouthHi()) {
+    if (i < l_.row_mouth && (i == l_.row_mouth - 1 || y < hs_.UpperVermilionY(x))) {
+      if (i >= l_.row_mouth - 5) return kUpperLip;
     }
-    if (j >= l.MouthLo() && j < l.MouthHi()) {
-      if (i < l.row_mouth && (i == l.row_mouth - 1 || y < hs.UpperVermilionY(x))) {
-        if (i >= l.row_mouth - 5) return kUpperLip;
-      }
-      if (i >= l.row_mouth && (i == l.row_mouth || y > hs.LowerVermilionY(x))) {
-        if (i <= l.row_mouth + 5) return kLowerLip;
-      }
+    if (i >= l_.row_mouth && (i == l_.row_mouth || y > hs_.LowerVermilionY(x))) {
+      if (i <= l_.row_mouth + 5) return kLowerLip;
     }
-    if (centre.z() > 0.f && y < hs.NasionY() + 0.3f && y > hs.SubnasaleY() - 0.25f &&
-        hs.NoseHeight(x, y) > 0.32f) {
-      return kNose;
-    }
-    if (y < hs.JawLineY(theta)) return kNeck;
-    if (y > HairLineY(hs, theta)) return kHair;
-    return kSkin;
-  };
+  }
+  if (centre.z() > 0.f && y < hs_.NasionY() + 0.3f && y > hs_.SubnasaleY() - 0.25f &&
+      hs_.NoseHeight(x, y) > 0.32f) {
+    return kNose;
+  }
+  if (y < hs_.JawLineY(theta)) return kNeck;
+  if (y > HairLineY(hs_, theta)) return kHair;
+  return kSkin;
+}
 
-  // Skin grid.
-  for (int i = 0; i + 1 < l.rows; ++i) {
-    for (int j = 0; j < l.cols; ++j) {
+// Skin grid.
+void TopologyMaker::AddSkinGrid() {
+  for (int i = 0; i + 1 < l_.rows; ++i) {
+    for (int j = 0; j < l_.cols; ++j) {
       const int jn = j + 1;
-      const int a = l.Vertex(i, j, true), b = l.Vertex(i + 1, j, false);
-      const int c = l.Vertex(i + 1, jn, false), d = l.Vertex(i, jn, true);
-      const int ua = uv_of(i, j, a), ub = uv_of(i + 1, j, b);
-      const int uc = uv_of(i + 1, jn, c), ud = uv_of(i, jn, d);
-      const Eigen::Vector3f centre =
-          0.25f * (neutral.row(a) + neutral.row(b) + neutral.row(c) + neutral.row(d)).transpose();
-      const int reg = skin_region(i, j, centre);
+      const int a = l_.Vertex(i, j, true), b = l_.Vertex(i + 1, j, false);
+      const int c = l_.Vertex(i + 1, jn, false), d = l_.Vertex(i, jn, true);
+      const int ua = UvOf(i, j, a), ub = UvOf(i + 1, j, b);
+      const int uc = UvOf(i + 1, jn, c), ud = UvOf(i, jn, d);
+      const Eigen::Vector3f centre = 0.25f * (neutral_.row(a) + neutral_.row(b) +
+                                              neutral_.row(c) + neutral_.row(d)).transpose();
+      const int reg = SkinRegion(i, j, centre);
       // Mirror-symmetric diagonals: a-c on the +x half, b-d on the -x half.
-      if (j >= l.half_cols) {
-        add(a, b, c, ua, ub, uc, reg);
-        add(a, c, d, ua, uc, ud, reg);
+      if (j >= l_.half_cols) {
+        Add(a, b, c, ua, ub, uc, reg);
+        Add(a, c, d, ua, uc, ud, reg);
       } else {
-        add(a, b, d, ua, ub, ud, reg);
-        add(b, c, d, ub, uc, ud, reg);
+        Add(a, b, d, ua, ub, ud, reg);
+        Add(b, c, d, ub, uc, ud, reg);
       }
     }
   }
-  // Poles.
-  for (int j = 0; j < l.cols; ++j) {
+}
+
+// Poles.
+void TopologyMaker::AddPoles() {
+  for (int j = 0; j < l_.cols; ++j) {
     const int jn = j + 1;
-    add(l.top_pole, l.Grid(0, j), l.Grid(0, jn), pole_uv_begin + 2 * j, uv_of(0, j, l.Grid(0, j)),
-        uv_of(0, jn, l.Grid(0, jn)), kHair);
-    const int last = l.rows - 1;
-    add(l.Grid(last, j), l.bottom_pole, l.Grid(last, jn), uv_of(last, j, l.Grid(last, j)),
-        pole_uv_begin + 2 * j + 1, uv_of(last, jn, l.Grid(last, jn)), kNeck);
+    Add(l_.top_pole, l_.Grid(0, j), l_.Grid(0, jn), pole_uv_begin_ + 2 * j,
+        UvOf(0, j, l_.Grid(0, j)), UvOf(0, jn, l_.Grid(0, jn)), kHair);
+    const int last = l_.rows - 1;
+    Add(l_.Grid(last, j), l_.bottom_pole, l_.Grid(last, jn), UvOf(last, j, l_.Grid(last, j)),
+        pole_uv_begin_ + 2 * j + 1, UvOf(last, jn, l_.Grid(last, jn)), kNeck);
   }
-  // Pockets: rings behind a loop, then a fan; the loop is used reversed so that every edge of
-  // the opening is shared with opposite direction.
-  auto pocket = [&](const std::vector<int>& loop, int ring_begin, int rings, int reg) {
-    const int n = static_cast<int>(loop.size());
-    std::vector<int> prev = loop;
-    for (int r = 0; r < rings; ++r) {
-      std::vector<int> next(n);
-      for (int k = 0; k < n; ++k) next[k] = ring_begin + r * n + k;
-      for (int k = 0; k < n; ++k) {
-        const int kn = (k + 1) % n;
-        add(prev[kn], prev[k], next[k], prev[kn], prev[k], next[k], reg);
-        add(prev[kn], next[k], next[kn], prev[kn], next[k], next[kn], reg);
-      }
-      prev = next;
-    }
-    const int centre = ring_begin + rings * n;
+}
+
+// Pockets: rings behind a loop, then a fan; the loop is used reversed so that every edge of
+// the opening is shared with opposite direction.
+void TopologyMaker::AddPocket(const std::vector<int>& loop, int ring_begin, int rings, int reg) {
+  const int n = static_cast<int>(loop.size());
+  std::vector<int> prev = loop;
+  for (int r = 0; r < rings; ++r) {
+    std::vector<int> next(n);
+    for (int k = 0; k < n; ++k) next[k] = ring_begin + r * n + k;
     for (int k = 0; k < n; ++k) {
       const int kn = (k + 1) % n;
-      add(prev[kn], prev[k], centre, prev[kn], prev[k], centre, reg);
+      Add(prev[kn], prev[k], next[k], prev[kn], prev[k], next[k], reg);
+      Add(prev[kn], next[k], next[kn], prev[kn], next[k], next[kn], reg);
     }
-  };
-  for (int side = 0; side < 2; ++side) {
-    pocket(l.Loop(l.EyeLo(side), l.EyeHi(side), l.row_eye), l.eye_pocket_begin[side], 1, kSclera);
+    prev = next;
   }
-  pocket(l.Loop(l.MouthLo(), l.MouthHi(), l.row_mouth), l.mouth_pocket_begin, l.mouth_rings,
-         kMouthInterior);
-  // Eyeballs.
+  const int centre = ring_begin + rings * n;
+  for (int k = 0; k < n; ++k) {
+    const int kn = (k + 1) % n;
+    Add(prev[kn], prev[k], centre, prev[kn], prev[k], centre, reg);
+  }
+}
+
+void TopologyMaker::AddPockets() {
   for (int side = 0; side < 2; ++side) {
-    const int base = l.eyeball_begin[side], n = l.eyeball_segments;
-    const int ring_count = l.eyeball_bands - 1;
+    AddPocket(l_.Loop(l_.EyeLo(side), l_.EyeHi(side), l_.row_eye), l_.eye_pocket_begin[side], 1,
+              kSclera);
+  }
+  AddPocket(l_.Loop(l_.MouthLo(), l_.MouthHi(), l_.row_mouth), l_.mouth_pocket_begin,
+            l_.mouth_rings, kMouthInterior);
+}
+
+// Eyeballs.
+void TopologyMaker::AddEyeballs() {
+  for (int side = 0; side < 2; ++side) {
+    const int base = l_.eyeball_begin[side], n = l_.eyeball_segments;
+    const int ring_count = l_.eyeball_bands - 1;
     auto ring = [&](int r, int b) { return base + 1 + r * n + (b % n); };
     for (int b = 0; b < n; ++b) {
-      add(base, ring(0, b), ring(0, b + 1), base, ring(0, b), ring(0, b + 1), kPupil);
+      Add(base, ring(0, b), ring(0, b + 1), base, ring(0, b), ring(0, b + 1), kPupil);
     }
     for (int r = 0; r + 1 < ring_count; ++r) {
       const int reg = r == 0 ? kIris : kSclera;
       for (int b = 0; b < n; ++b) {
-        add(ring(r, b), ring(r + 1, b), ring(r + 1, b + 1), ring(r, b), ring(r + 1, b),
+        Add(ring(r, b), ring(r + 1, b), ring(r + 1, b + 1), ring(r, b), ring(r + 1, b),
             ring(r + 1, b + 1), reg);
-        add(ring(r, b), ring(r + 1, b + 1), ring(r, b + 1), ring(r, b), ring(r + 1, b + 1),
+        Add(ring(r, b), ring(r + 1, b + 1), ring(r, b + 1), ring(r, b), ring(r + 1, b + 1),
             ring(r, b + 1), reg);
       }
     }
-    const int back = base + l.eyeball_count - 1;
+    const int back = base + l_.eyeball_count - 1;
     for (int b = 0; b < n; ++b) {
-      add(ring(ring_count - 1, b), back, ring(ring_count - 1, b + 1), ring(ring_count - 1, b), back,
+      Add(ring(ring_count - 1, b), back, ring(ring_count - 1, b + 1), ring(ring_count - 1, b), back,
           ring(ring_count - 1, b + 1), kSclera);
     }
   }
-  // UVs of the parts that are not skin: front projections into boxes below the head chart.
-  auto box_uv = [&](int begin, int count, float u0) {
-    Eigen::Vector2f lo(1e9f, 1e9f), hi(-1e9f, -1e9f);
-    for (int k = begin; k < begin + count; ++k) {
-      lo = lo.cwiseMin(neutral.row(k).head<2>().transpose());
-      hi = hi.cwiseMax(neutral.row(k).head<2>().transpose());
-    }
-    const Eigen::Vector2f size = (hi - lo).cwiseMax(Eigen::Vector2f(1e-3f, 1e-3f));
-    for (int k = begin; k < begin + count; ++k) {
-      const Eigen::Vector2f q = (neutral.row(k).head<2>().transpose() - lo).cwiseQuotient(size);
-      uvs[k] = Eigen::Vector2f(u0 + 0.01f + 0.18f * q.x(), 0.01f + 0.18f * q.y());
-    }
-  };
-  box_uv(l.eyeball_begin[0], l.eyeball_count, 0.0f);
-  box_uv(l.eyeball_begin[1], l.eyeball_count, 0.2f);
-  box_uv(l.eye_pocket_begin[0], l.eye_loop + 1, 0.4f);
-  box_uv(l.eye_pocket_begin[1], l.eye_loop + 1, 0.6f);
-  box_uv(l.mouth_pocket_begin, l.mouth_rings * l.mouth_loop + 1, 0.8f);
-  uvs[l.top_pole] = Eigen::Vector2f(0.5f, 0.99f);
-  uvs[l.bottom_pole] = Eigen::Vector2f(0.5f, 0.21f);
+}
 
-  MeshTopology out;
-  out.triangles.resize(static_cast<int>(tris.size()), 3);
-  out.uv_triangles.resize(static_cast<int>(tris.size()), 3);
-  out.triangle_region.resize(static_cast<int>(tris.size()));
-  for (int f = 0; f < static_cast<int>(tris.size()); ++f) {
-    out.triangles.row(f) = tris[f].transpose();
-    out.uv_triangles.row(f) = uvtris[f].transpose();
-    out.triangle_region(f) = region[f];
+// Front projection of the vertices begin .. begin + count - 1 into a box at u0.
+void TopologyMaker::PlaceBoxUvs(int begin, int count, float u0) {
+  Eigen::Vector2f lo(1e9f, 1e9f), hi(-1e9f, -1e9f);
+  for (int k = begin; k < begin + count; ++k) {
+    lo = lo.cwiseMin(neutral_.row(k).head<2>().transpose());
+    hi = hi.cwiseMax(neutral_.row(k).head<2>().transpose());
   }
-  out.uvs.resize(static_cast<int>(uvs.size()), 2);
-  for (int k = 0; k < static_cast<int>(uvs.size()); ++k) out.uvs.row(k) = uvs[k].transpose();
+  const Eigen::Vector2f size = (hi - lo).cwiseMax(Eigen::Vector2f(1e-3f, 1e-3f));
+  for (int k = begin; k < begin + count; ++k) {
+    const Eigen::Vector2f q = (neutral_.row(k).head<2>().transpose() - lo).cwiseQuotient(size);
+    uvs_[k] = Eigen::Vector2f(u0 + 0.01f + 0.18f * q.x(), 0.01f + 0.18f * q.y());
+  }
+}
+
+// UVs of the parts that are not skin: front projections into boxes below the head chart.
+void TopologyMaker::PlacePartUvs() {
+  PlaceBoxUvs(l_.eyeball_begin[0], l_.eyeball_count, 0.0f);
+  PlaceBoxUvs(l_.eyeball_begin[1], l_.eyeball_count, 0.2f);
+  PlaceBoxUvs(l_.eye_pocket_begin[0], l_.eye_loop + 1, 0.4f);
+  PlaceBoxUvs(l_.eye_pocket_begin[1], l_.eye_loop + 1, 0.6f);
+  PlaceBoxUvs(l_.mouth_pocket_begin, l_.mouth_rings * l_.mouth_loop + 1, 0.8f);
+  uvs_[l_.top_pole] = Eigen::Vector2f(0.5f, 0.99f);
+  uvs_[l_.bottom_pole] = Eigen::Vector2f(0.5f, 0.21f);
+}
+
+MeshTopology TopologyMaker::Finish() const {
+  MeshTopology out;
+  out.triangles.resize(static_cast<int>(tris_.size()), 3);
+  out.uv_triangles.resize(static_cast<int>(tris_.size()), 3);
+  out.triangle_region.resize(static_cast<int>(tris_.size()));
+  for (int f = 0; f < static_cast<int>(tris_.size()); ++f) {
+    out.triangles.row(f) = tris_[f].transpose();
+    out.uv_triangles.row(f) = uvtris_[f].transpose();
+    out.triangle_region(f) = region_[f];
+  }
+  out.uvs.resize(static_cast<int>(uvs_.size()), 2);
+  for (int k = 0; k < static_cast<int>(uvs_.size()); ++k) out.uvs.row(k) = uvs_[k].transpose();
   return out;
+}
+
+}  // namespace
+
+MeshTopology MakeTopology(const HeadBuilder& builder, const Vertices& neutral) {
+  TopologyMaker maker(builder, neutral);
+  maker.PlaceHeadUvs();
+  maker.AddSkinGrid();
+  maker.AddPoles();
+  maker.AddPockets();
+  maker.AddEyeballs();
+  maker.PlacePartUvs();
+  return maker.Finish();
 }
 
 // ---- per-vertex facts ------------------------------------------------------------------------
