@@ -5,7 +5,7 @@
 #   translations            inverse rendering of the deepfake's translations alone
 #   translations + lmk W    the same with the landmark term of weight W (LANDMARK_WEIGHTS; in
 #                           units of each point's noise that person fit measured; the track
-#                           stage's default is 0.5)
+#                           stage's default is 1)
 # The demo (OUT_DIR holds clip.h5) is scored against the truth, with the neutral face's
 # figures beside; a real video is scored against a reference landmarker's JSON (REF_JSON, from
 # the ref_landmarks tools), held-out and trained frames apart.

@@ -26,11 +26,11 @@ namespace {
 // /track/termination of a frame without a face (Ceres's codes are 0-2).
 constexpr int32_t kNoTarget = 3;
 
-// The solver's settings as the track stage defaults them: the landmark term on, at half the
-// weight of each point's measured noise.
+// The solver's settings as the track stage defaults them: the landmark term on, each point
+// weighed by its inverse squared measured noise.
 track::TrackerOptions TrackStageSolverDefaults() {
   track::TrackerOptions t;
-  t.landmark_weight = 0.5f;
+  t.landmark_weight = 1.f;
   return t;
 }
 
