@@ -6,15 +6,15 @@
 // (the networks' parameters, attributes: image_size, channels, residual_blocks, head_width,
 // head_depth, head_frame, head_local_frame, amplitude_width, amplitude_on_path,
 // amplitude_components, input_scale, expression_scale; /model/amplitude_basis with
-// amplitude_components), /checkpoint/state while training (parameters, Adam moments, steps), and
-// /checkpoint/average (double: the sum of the parameters so far over the averaged steps) inside
-// a stage's averaged steps (average_fraction).
+// amplitude_components), /training (train/controller.h). While training, bsgen.h5.checkpoint:
+// /optimizer/state (parameters, Adam moments, steps) and /optimizer/parameter_sum (double: the
+// sum of the parameters so far over the averaged steps) inside a stage's averaged steps
+// (average_fraction).
 // baselines.h5: /baselines/template/deltas and /baselines/example_based/deltas [P, N, V, 3].
 // eval --shapes: /shapes/ours/deltas, /shapes/ours_estimation/deltas [P, N, V, 3] (cm),
 // /errors/<method> [P, K] (mm, per scan), /errors/split [P].
 #include <chrono>
 #include <cmath>
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -34,6 +34,7 @@
 #include "stages/frame_loop.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
+#include "train/controller.h"
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/parallel_for.h"
@@ -198,6 +199,7 @@ struct BlendshapesTrainOptions {
   int tuning_epochs = 30;             // passes over the training people, Tuning Stage
   int batch = 8;                      // people per step, all ranks together
   int checkpoint_every = 50;          // steps between checkpoints
+  double progress_seconds = 10;       // interval of the progress lines
   int threads = 0;                    // tensor threads per rank (0: the cores divided among ranks)
   int seed = 1;                       // batch order seed
   float nominal_weight = 1.f;         // the weight of a FACS table's 1 in training
@@ -213,6 +215,7 @@ struct BlendshapesTrainOptions {
     v("tuning_epochs", tuning_epochs, "passes over the training people in the Tuning Stage");
     v("batch", batch, "people per optimizer step, all ranks together");
     v("checkpoint_every", checkpoint_every, "optimizer steps between checkpoints");
+    v("progress_seconds", progress_seconds, "seconds between progress lines");
     v("threads", threads, "tensor threads per rank (0: the cores divided among the node's ranks)");
     v("seed", seed, "batch order seed");
     v("nominal_weight", nominal_weight,
@@ -230,21 +233,13 @@ struct BlendshapesTrainOptions {
     if (estimation_epochs < 0 || tuning_epochs < 0) { *why = "epochs must be >= 0"; return false; }
     if (batch < 1) { *why = "batch must be >= 1"; return false; }
     if (checkpoint_every < 1) { *why = "checkpoint_every must be >= 1"; return false; }
+    if (!(progress_seconds > 0)) { *why = "progress_seconds must be positive"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
     if (!(nominal_weight > 0.f && nominal_weight <= 1.f)) { *why = "nominal_weight must be in (0, 1]"; return false; }
     if (!(average_fraction >= 0.f && average_fraction < 1.f)) { *why = "average_fraction must be in [0, 1)"; return false; }
     return net.Check(why);
   }
 };
-
-void MaybeInjectFault(const dist::Comm& comm, int64_t steps_done) {
-  // FACECAP_FAULT_AFTER_STEPS=k: rank 0 sends itself SIGTERM (SIGKILL with
-  // FACECAP_FAULT_SIGNAL=KILL) once step k is done; for the restart tests.
-  static const char* after = std::getenv("FACECAP_FAULT_AFTER_STEPS");
-  if (!after || !comm.IsMainRank() || steps_done != std::atoll(after)) return;
-  const char* kind = std::getenv("FACECAP_FAULT_SIGNAL");
-  std::raise(kind && std::string(kind) == "KILL" ? SIGKILL : SIGTERM);
-}
 
 float RmsOverChart(const std::vector<int>& chart, const std::vector<Eigen::VectorXf>& meshes,
                    const Eigen::VectorXf& reference) {
@@ -256,15 +251,14 @@ float RmsOverChart(const std::vector<int>& chart, const std::vector<Eigen::Vecto
   return count ? static_cast<float>(std::sqrt(sum / count)) + 1e-6f : 1.f;
 }
 
-void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<BlendshapesTrainOptions>(flags, &ctx, &resolved);
-  const dist::Comm& comm = ctx.comm;
-  ScanData data;
-  dist::CoordinateExceptions(comm, [&] { data = ReadScans(o.scans, false); });
-  nn::SetTensorThreads(ThreadsPerRank(o.threads));
-  const NetSetup setup = MakeNetSetup(data.topology, data.tmpl, o.image_size);
+// The training people as the networks see them, and the scales of their displacement images.
+struct TrainingPeople {
+  std::vector<nn::BlendshapePerson> people;
+  float input_scale = 1.f, expression_scale = 1.f;
+};
+
+TrainingPeople PrepareTrainingPeople(const ScanData& data, const NetSetup& setup,
+                                     const BlendshapesTrainOptions& o) {
   const std::vector<int>& chart = setup.layout->chart_vertices();
   std::vector<int> train;
   for (int j = 0; j < data.NumPeople(); ++j) if (data.split[j] == 0) train.push_back(j);
@@ -274,179 +268,215 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
     train_neutrals.push_back(data.neutral[j]);
     for (int k = 0; k < data.alpha.rows(); ++k) train_expressions.push_back(data.expressions[j].col(k) - data.neutral[j] + template_column);
   }
-  const float input_scale = RmsOverChart(chart, train_neutrals, template_column);
-  const float expression_scale = RmsOverChart(chart, train_expressions, template_column);
-  // Training people as the networks see them.
+  TrainingPeople out;
+  out.input_scale = RmsOverChart(chart, train_neutrals, template_column);
+  out.expression_scale = RmsOverChart(chart, train_expressions, template_column);
   const int K = static_cast<int>(data.alpha.rows());
-  std::vector<nn::BlendshapePerson> people(train.size());
-  const std::vector<float> zero_image(setup.template_image.size(), 0.f);
+  out.people.resize(train.size());
   ParallelFor(0, static_cast<int>(train.size()), ThreadsPerRank(o.threads), [&](int t) {
     const int j = train[t];
-    nn::BlendshapePerson& p = people[t];
+    nn::BlendshapePerson& p = out.people[t];
     p.num_expressions = K;
-    p.neutral_image = DisplacementImage(setup, data.neutral[j], setup.template_image, input_scale);
+    p.neutral_image = DisplacementImage(setup, data.neutral[j], setup.template_image, out.input_scale);
     p.neutral = ChartValues(chart, data.neutral[j]);
     const std::vector<float> neutral_image_raw = setup.layout->RenderColumn(data.neutral[j]);
     for (int k = 0; k < K; ++k) {
       const auto e = ChartValues(chart, data.expressions[j].col(k));
       p.expressions.insert(p.expressions.end(), e.begin(), e.end());
-      const auto img = DisplacementImage(setup, data.expressions[j].col(k), neutral_image_raw, expression_scale);
+      const auto img = DisplacementImage(setup, data.expressions[j].col(k), neutral_image_raw, out.expression_scale);
       p.expression_images.insert(p.expression_images.end(), img.begin(), img.end());
     }
     Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> a = o.nominal_weight * data.alpha;
     p.nominal_weights.assign(a.data(), a.data() + a.size());
   });
-  nn::BlendshapeGenerator model(o.net, setup.geometry);
-  {
-    std::vector<const nn::BlendshapePerson*> all;
-    for (const auto& p : people) all.push_back(&p);
-    model.FitAmplitudeBasis(all);  // (amplitude_components > 0 only)
-  }
-  const int T = static_cast<int>(train.size());
-  const int steps_per_epoch = (T + o.batch - 1) / o.batch;
-  const int64_t estimation_steps = static_cast<int64_t>(o.estimation_epochs) * steps_per_epoch;
-  const int64_t total_steps = estimation_steps + static_cast<int64_t>(o.tuning_epochs) * steps_per_epoch;
+  return out;
+}
 
-  // Rank 0 owns the output; a checkpoint in its .partial continues training.
-  ResumableOutput output;
-  int up_to_date = 0;
-  int64_t start_step = 0;
-  std::vector<float> state_vector;
-  // The running sum of the parameters over the averaged steps of the current stage (empty
-  // outside them), in double: the same on every rank and after a resume.
-  std::vector<double> average;
-  dist::CoordinateExceptions(comm, [&] {
-    if (!comm.IsMainRank()) return;
-    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "blendshapes train", resolved));
-    up_to_date = output.up_to_date ? 1 : 0;
-    if (!up_to_date && output.resumed && output.file.Exists("/checkpoint/state")) {
-      state_vector = output.file.ReadVector<float>("/checkpoint/state", 3 * model.NumParameters() + 2);
-      start_step = output.file.GetIntAttribute("/checkpoint/state", "step");
-      if (output.file.Exists("/checkpoint/average")) {
-        average = output.file.ReadVector<double>("/checkpoint/average", model.NumParameters());
-      }
-      FC_INFO("blendshapes train: continuing {} from step {} of {}", io::H5File::PartialPath(o.out), start_step, total_steps);
-    }
-  });
-  comm.Broadcast(&up_to_date, sizeof(up_to_date));
-  if (up_to_date) {
-    if (comm.IsMainRank()) FC_INFO("blendshapes train: {} is up to date", o.out);
-    return;
+// The blendshape generator as the training controller sees it: the Estimation Stage's steps,
+// then the Tuning Stage's, each epoch a permutation of the training people drawn from
+// Rng(seed, epoch), the ranks taking every comm.size()-th person of a step's batch; each stage
+// ends on the mean of its last average_fraction of iterates.
+class BlendshapesTraining : public train::Network {
+ public:
+  BlendshapesTraining(const BlendshapesTrainOptions& o, const dist::Comm& comm,
+                      const ScanData& data, const NetSetup& setup, TrainingPeople* people)
+      : o_(o), comm_(comm), data_(data), people_(*people), model_(o.net, setup.geometry),
+        num_people_(static_cast<int>(people->people.size())),
+        steps_per_epoch_((num_people_ + o.batch - 1) / o.batch),
+        estimation_steps_(static_cast<int64_t>(o.estimation_epochs) * steps_per_epoch_),
+        total_steps_(estimation_steps_ + static_cast<int64_t>(o.tuning_epochs) * steps_per_epoch_) {
+    std::vector<const nn::BlendshapePerson*> all;
+    for (const auto& p : people_.people) all.push_back(&p);
+    model_.FitAmplitudeBasis(all);  // (amplitude_components > 0 only)
   }
-  comm.Broadcast(&start_step, sizeof(start_step));
-  comm.Broadcast(&state_vector);
-  comm.Broadcast(&average);
-  if (!state_vector.empty()) model.SetState(state_vector);
-  auto write_checkpoint = [&](int64_t step) {
-    dist::CoordinateExceptions(comm, [&] {
-      if (!comm.IsMainRank()) return;
-      output.file.WriteVector<float>("/checkpoint/state", model.State());
-      output.file.SetAttribute("/checkpoint/state", "step", static_cast<int64_t>(step));
-      if (!average.empty()) {
-        output.file.WriteVector<double>("/checkpoint/average", average);
-      } else if (output.file.Exists("/checkpoint/average")) {
-        output.file.Remove("/checkpoint/average");
-      }
-      output.file.Flush();
-    });
-  };
-  if (comm.IsMainRank()) {
-    FC_INFO("blendshapes train: {} training people, {} parameters, {} steps ({} estimation), batch {} on {} ranks, "
-            "geometry images {}x{}, {} chart vertices", T, model.NumParameters(), total_steps, estimation_steps,
-            o.batch, comm.size(), o.image_size, o.image_size, chart.size());
-  }
-  const auto started = std::chrono::steady_clock::now();
-  double loss_sum = 0, rec_sum = 0;
-  for (int64_t step = start_step; step < total_steps; ++step) {
-    const nn::TrainingStage stage = step < estimation_steps ? nn::TrainingStage::kEstimation : nn::TrainingStage::kTuning;
-    const int64_t stage_step = step < estimation_steps ? step : step - estimation_steps;
-    const int64_t epoch = stage_step / steps_per_epoch + (stage == nn::TrainingStage::kTuning ? 100000 : 0);
-    const int in_epoch = static_cast<int>(stage_step % steps_per_epoch);
+  int64_t total_steps() const { return total_steps_; }
+  int64_t estimation_steps() const { return estimation_steps_; }
+  int64_t NumParameters() const { return model_.NumParameters(); }
+
+  int NumLosses() const override { return 2; }
+  void Backward(int64_t step, double* losses) override {
+    const Position at = PositionOf(step);
+    const int64_t epoch = at.stage_step / steps_per_epoch_ + (at.stage == nn::TrainingStage::kTuning ? 100000 : 0);
+    const int in_epoch = static_cast<int>(at.stage_step % steps_per_epoch_);
     // The epoch's permutation of the training people (the same on every rank).
-    std::vector<int> order(T);
+    std::vector<int> order(num_people_);
     std::iota(order.begin(), order.end(), 0);
-    Rng rng(static_cast<uint64_t>(o.seed), static_cast<uint64_t>(epoch));
-    for (int i = T - 1; i > 0; --i) std::swap(order[i], order[static_cast<int>(rng.UniformInt(i + 1))]);
-    const int begin = in_epoch * o.batch, end = std::min(T, begin + o.batch);
+    Rng rng(static_cast<uint64_t>(o_.seed), static_cast<uint64_t>(epoch));
+    for (int i = num_people_ - 1; i > 0; --i) std::swap(order[i], order[static_cast<int>(rng.UniformInt(i + 1))]);
+    const int begin = in_epoch * o_.batch, end = std::min(num_people_, begin + o_.batch);
     std::vector<const nn::BlendshapePerson*> mine;
-    for (int b = begin + comm.rank(); b < end; b += comm.size()) mine.push_back(&people[order[b]]);
+    for (int b = begin + comm_.rank(); b < end; b += comm_.size()) mine.push_back(&people_.people[order[b]]);
     double rec = 0;
-    double sums[2] = {model.Backward(mine, stage, 1.f / static_cast<float>(end - begin), &rec), rec};
-    comm.SumReduce(model.GradientBuffer(), model.NumParameters());
-    comm.SumReduce(sums, 2);
-    model.OptimizerStep(stage);
+    losses[0] = model_.Backward(mine, at.stage, 1.f / static_cast<float>(end - begin), &rec);
+    losses[1] = rec / (end - begin);
+  }
+  float* gradients() override { return model_.GradientBuffer(); }
+  int64_t num_gradients() const override { return model_.NumParameters(); }
+  void Apply(int64_t step) override {
+    const Position at = PositionOf(step);
+    model_.OptimizerStep(at.stage);
     // Iterate averaging over the stage's last average_fraction of steps; at the stage's end the
     // model takes the mean (the other stage's parameters are constant meanwhile).
-    const int64_t stage_steps = stage == nn::TrainingStage::kEstimation ? estimation_steps : total_steps - estimation_steps;
-    const int64_t averaged = static_cast<int64_t>(std::floor(o.average_fraction * static_cast<double>(stage_steps)));
-    if (averaged > 1 && stage_step >= stage_steps - averaged) {
-      const std::vector<float> now = model.Parameters();
-      if (average.empty()) average.assign(now.size(), 0.0);
-      for (size_t k = 0; k < now.size(); ++k) average[k] += now[k];
-      if (stage_step + 1 == stage_steps) {
+    const int64_t averaged = static_cast<int64_t>(std::floor(o_.average_fraction * static_cast<double>(at.stage_steps)));
+    if (averaged > 1 && at.stage_step >= at.stage_steps - averaged) {
+      const std::vector<float> now = model_.Parameters();
+      if (average_.empty()) average_.assign(now.size(), 0.0);
+      for (size_t k = 0; k < now.size(); ++k) average_[k] += now[k];
+      if (at.stage_step + 1 == at.stage_steps) {
         std::vector<float> mean(now.size());
-        for (size_t k = 0; k < now.size(); ++k) mean[k] = static_cast<float>(average[k] / static_cast<double>(averaged));
-        model.SetParameters(mean);
-        average.clear();
+        for (size_t k = 0; k < now.size(); ++k) mean[k] = static_cast<float>(average_[k] / static_cast<double>(averaged));
+        model_.SetParameters(mean);
+        average_.clear();
       }
     }
-    loss_sum += sums[0];
-    rec_sum += sums[1] / (end - begin);
-    const int64_t done = step + 1;
-    if (comm.IsMainRank() && (done % steps_per_epoch == 0) && ((done / steps_per_epoch) % 10 == 0 || done == total_steps)) {
-      FC_INFO("blendshapes train: step {}/{} ({}), loss {:.5f}, L_rec {:.4f} mm", done, total_steps,
-              stage == nn::TrainingStage::kEstimation ? "estimation" : "tuning", loss_sum / steps_per_epoch,
-              10.0 * rec_sum / steps_per_epoch);
+  }
+  uint64_t ParameterHash() override {
+    const std::vector<float> parameters = model_.Parameters();
+    uint64_t hash = 1469598103934665603ull;  // FNV-1a over the parameter bytes
+    for (const uint8_t* b = reinterpret_cast<const uint8_t*>(parameters.data()),
+                      *e = b + parameters.size() * sizeof(float); b != e; ++b) {
+      hash = (hash ^ *b) * 1099511628211ull;
     }
-    if (done % steps_per_epoch == 0) loss_sum = rec_sum = 0;
-    MaybeInjectFault(comm, done);
-    const bool stop = comm.AnyTrue(StopRequested());
-    if (stop || done % o.checkpoint_every == 0) write_checkpoint(done);
-    if (stop) throw InterruptedError("blendshapes train: stopped after step " + std::to_string(done) + "; checkpoint written, rerun to continue");
+    return hash;
   }
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  // Every rank must hold bitwise the same parameters (same init, same summed gradients).
-  const std::vector<float> parameters = model.Parameters();
-  uint64_t hash = 1469598103934665603ull;  // FNV-1a over the parameter bytes
-  for (const uint8_t* b = reinterpret_cast<const uint8_t*>(parameters.data()),
-                    *e = b + parameters.size() * sizeof(float); b != e; ++b) {
-    hash = (hash ^ *b) * 1099511628211ull;
+
+  // /optimizer/state: the parameters, Adam moments and step counts; /optimizer/parameter_sum
+  // (double): the running sum of the parameters inside a stage's averaged steps.
+  void WriteState(io::H5File* f, int64_t) override {
+    f->WriteVector<float>("/optimizer/state", model_.State());
+    if (!average_.empty()) f->WriteVector<double>("/optimizer/parameter_sum", average_);
   }
-  std::vector<uint8_t> mine(sizeof(hash));
-  std::memcpy(mine.data(), &hash, sizeof(hash));
-  for (const auto& other : comm.AllGather(mine)) {
-    if (other != mine) throw ParallelConsistencyError("blendshapes train: ranks hold different parameters");
-  }
-  dist::CoordinateExceptions(comm, [&] {
-    if (!comm.IsMainRank()) return;
-    io::H5File& f = output.file;
-    FC_INFO("blendshapes train: parameters identical on all {} ranks (hash {:016x})", comm.size(), hash);
-    f.SetAttribute("/", "parameter_hash", std::to_string(hash));
-    io::WriteRig(data.topology, &f, "/template");
-    f.WriteVector<float>("/model/parameters", model.Parameters());
-    f.SetAttribute("/model/parameters", "image_size", static_cast<int64_t>(o.image_size));
-    f.SetAttribute("/model/parameters", "channels", static_cast<int64_t>(o.net.channels));
-    f.SetAttribute("/model/parameters", "residual_blocks", static_cast<int64_t>(o.net.residual_blocks));
-    f.SetAttribute("/model/parameters", "head_width", static_cast<int64_t>(o.net.head_width));
-    f.SetAttribute("/model/parameters", "amplitude_width", static_cast<int64_t>(o.net.amplitude_width));
-    f.SetAttribute("/model/parameters", "head_frame", static_cast<int64_t>(o.net.head_frame ? 1 : 0));
-    f.SetAttribute("/model/parameters", "head_depth", static_cast<int64_t>(o.net.head_depth));
-    f.SetAttribute("/model/parameters", "head_local_frame", static_cast<int64_t>(o.net.head_local_frame ? 1 : 0));
-    f.SetAttribute("/model/parameters", "amplitude_on_path", static_cast<int64_t>(o.net.amplitude_on_path ? 1 : 0));
-    f.SetAttribute("/model/parameters", "amplitude_components", static_cast<int64_t>(o.net.amplitude_components));
-    if (o.net.amplitude_components > 0) {
-      const std::vector<float> basis = model.AmplitudeBasis();  // [components + 1, features]
-      const int64_t rows = o.net.amplitude_components + 1;
-      f.Write<float>("/model/amplitude_basis", {rows, static_cast<int64_t>(basis.size()) / rows}, basis.data());
+  void ReadState(const io::H5File& f) override {
+    state_ = f.ReadVector<float>("/optimizer/state", 3 * model_.NumParameters() + 2);
+    if (f.Exists("/optimizer/parameter_sum")) {
+      average_ = f.ReadVector<double>("/optimizer/parameter_sum", model_.NumParameters());
     }
-    f.SetAttribute("/model/parameters", "input_scale", static_cast<double>(input_scale));
-    f.SetAttribute("/model/parameters", "expression_scale", static_cast<double>(expression_scale));
-    f.SetAttribute("/model/parameters", "train_seconds", seconds);
-    f.SetAttribute("/model/parameters", "train_steps", static_cast<int64_t>(total_steps - start_step));
-    f.Commit();
-    FC_INFO("blendshapes train: {} steps in {:.1f} s ({:.3f} s per step) on {} ranks -> {}", total_steps - start_step,
-            seconds, seconds / std::max<int64_t>(1, total_steps - start_step), comm.size(), o.out);
-  });
+  }
+  void BroadcastState(const dist::Comm& comm, bool) override {
+    comm.Broadcast(&state_);
+    comm.Broadcast(&average_);
+    if (!state_.empty()) model_.SetState(state_);
+    started_ = std::chrono::steady_clock::now();
+  }
+  void WriteModel(io::H5File* f, int64_t steps_done) override;
+
+  std::string FormatLosses(int64_t done, const double* means) const override {
+    return fmt::format("{}  loss {:.5f}  L_rec {:.4f} mm", done <= estimation_steps_ ? "estimation" : "tuning",
+                       means[0], 10.0 * means[1]);
+  }
+
+ private:
+  struct Position {
+    nn::TrainingStage stage;
+    int64_t stage_step;   // the step within its stage
+    int64_t stage_steps;  // the stage's steps
+  };
+  Position PositionOf(int64_t step) const {
+    if (step < estimation_steps_) return {nn::TrainingStage::kEstimation, step, estimation_steps_};
+    return {nn::TrainingStage::kTuning, step - estimation_steps_, total_steps_ - estimation_steps_};
+  }
+
+  const BlendshapesTrainOptions& o_;
+  const dist::Comm& comm_;
+  const ScanData& data_;
+  const TrainingPeople& people_;
+  nn::BlendshapeGenerator model_;
+  const int num_people_;
+  const int steps_per_epoch_;
+  const int64_t estimation_steps_, total_steps_;
+  std::vector<float> state_;     // rank 0: the state a continued run starts from
+  // The running sum of the parameters over the averaged steps of the current stage (empty
+  // outside them), in double: the same on every rank and after a resume.
+  std::vector<double> average_;
+  std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+};
+
+void BlendshapesTraining::WriteModel(io::H5File* f, int64_t steps_done) {
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+  f->SetAttribute("/", "parameter_hash", std::to_string(ParameterHash()));
+  io::WriteRig(data_.topology, f, "/template");
+  f->WriteVector<float>("/model/parameters", model_.Parameters());
+  const char* p = "/model/parameters";
+  f->SetAttribute(p, "image_size", static_cast<int64_t>(o_.image_size));
+  f->SetAttribute(p, "channels", static_cast<int64_t>(o_.net.channels));
+  f->SetAttribute(p, "residual_blocks", static_cast<int64_t>(o_.net.residual_blocks));
+  f->SetAttribute(p, "head_width", static_cast<int64_t>(o_.net.head_width));
+  f->SetAttribute(p, "amplitude_width", static_cast<int64_t>(o_.net.amplitude_width));
+  f->SetAttribute(p, "head_frame", static_cast<int64_t>(o_.net.head_frame ? 1 : 0));
+  f->SetAttribute(p, "head_depth", static_cast<int64_t>(o_.net.head_depth));
+  f->SetAttribute(p, "head_local_frame", static_cast<int64_t>(o_.net.head_local_frame ? 1 : 0));
+  f->SetAttribute(p, "amplitude_on_path", static_cast<int64_t>(o_.net.amplitude_on_path ? 1 : 0));
+  f->SetAttribute(p, "amplitude_components", static_cast<int64_t>(o_.net.amplitude_components));
+  if (o_.net.amplitude_components > 0) {
+    const std::vector<float> basis = model_.AmplitudeBasis();  // [components + 1, features]
+    const int64_t rows = o_.net.amplitude_components + 1;
+    f->Write<float>("/model/amplitude_basis", {rows, static_cast<int64_t>(basis.size()) / rows}, basis.data());
+  }
+  f->SetAttribute(p, "input_scale", static_cast<double>(people_.input_scale));
+  f->SetAttribute(p, "expression_scale", static_cast<double>(people_.expression_scale));
+  f->SetAttribute(p, "train_seconds", seconds);
+  f->SetAttribute(p, "train_steps", steps_done);
+}
+
+// The options with those that may change between a run and its continuation at their
+// defaults.
+BlendshapesTrainOptions IdentityOptions(const BlendshapesTrainOptions& o) {
+  BlendshapesTrainOptions id = o;
+  const BlendshapesTrainOptions defaults;
+  id.out = defaults.out;
+  id.checkpoint_every = defaults.checkpoint_every;
+  id.threads = defaults.threads;
+  id.progress_seconds = defaults.progress_seconds;
+  return id;
+}
+
+void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<BlendshapesTrainOptions>(flags, &ctx, &resolved);
+  const dist::Comm& comm = ctx.comm;
+  ScanData data;
+  dist::CoordinateExceptions(comm, [&] { data = ReadScans(o.scans, false); });
+  nn::SetTensorThreads(ThreadsPerRank(o.threads));
+  const NetSetup setup = MakeNetSetup(data.topology, data.tmpl, o.image_size);
+  TrainingPeople people = PrepareTrainingPeople(data, setup, o);
+  BlendshapesTraining network(o, comm, data, setup, &people);
+  if (comm.IsMainRank()) {
+    FC_INFO("blendshapes train: {} training people, {} parameters, {} steps ({} estimation), batch {} on {} ranks, "
+            "geometry images {}x{}, {} chart vertices", people.people.size(), network.NumParameters(),
+            network.total_steps(), network.estimation_steps(), o.batch, comm.size(), o.image_size, o.image_size,
+            setup.layout->chart_vertices().size());
+  }
+  train::ControllerOptions control = TrainingControl(ctx, resolved, "blendshapes train",
+                                                     "blendshapes.train", o.out, IdentityOptions(o));
+  control.steps = network.total_steps();
+  control.checkpoint_every = o.checkpoint_every;
+  control.progress_seconds = o.progress_seconds;
+  const train::TrainResult r = train::Train(control, comm, &network);
+  if (comm.IsMainRank() && !r.up_to_date) {
+    FC_INFO("blendshapes train: {} steps in {:.1f} s ({:.3f} s per step) on {} ranks -> {}", r.steps_run,
+            r.seconds, r.seconds / std::max<int64_t>(1, r.steps_run), comm.size(), o.out);
+  }
 }
 
 // A trained model loaded for inference.

@@ -58,7 +58,7 @@ TEST_F(Blendshapes, TwoAndThreeRanksKeepIdenticalParameters) {
     const std::string out = dir_->File("ranks" + std::to_string(ranks) + ".h5");
     auto r = RunFacecap(Train(out), ranks);
     ASSERT_EQ(r.code, 0) << r.output;
-    EXPECT_NE(r.output.find("parameters identical on all " + std::to_string(ranks) + " ranks"), std::string::npos)
+    EXPECT_NE(r.output.find("weights identical on " + std::to_string(ranks) + " rank(s)"), std::string::npos)
         << r.output;
   }
 }
@@ -110,7 +110,7 @@ TEST_F(Blendshapes, IterateAveragingEndsOnTheMeanAndResumes) {
   ASSERT_EQ(RunFacecap(train(third, false), 0, "FACECAP_FAULT_AFTER_STEPS=3").code, kExitInterrupted);
   ASSERT_EQ(RunFacecap(train(mean, true)).code, 0);
   const std::vector<float> p4 = Parameters(last), averaged = Parameters(mean);
-  const std::vector<float> state = io::H5File::OpenRead(io::H5File::PartialPath(third)).ReadVector<float>("/checkpoint/state");
+  const std::vector<float> state = io::H5File::OpenRead(third + ".checkpoint").ReadVector<float>("/optimizer/state");
   ASSERT_EQ(averaged.size(), p4.size());
   ASSERT_GT(state.size(), p4.size());
   double worst = 0, moved = 0;
@@ -123,7 +123,7 @@ TEST_F(Blendshapes, IterateAveragingEndsOnTheMeanAndResumes) {
   EXPECT_LT(worst, 1e-5);
   auto stop = RunFacecap(train(resumed, true), 0, "FACECAP_FAULT_AFTER_STEPS=3");
   EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
-  EXPECT_TRUE(io::H5File::OpenRead(io::H5File::PartialPath(resumed)).Exists("/checkpoint/average"));
+  EXPECT_TRUE(io::H5File::OpenRead(resumed + ".checkpoint").Exists("/optimizer/parameter_sum"));
   auto rerun = RunFacecap(train(resumed, true));
   ASSERT_EQ(rerun.code, 0) << rerun.output;
   EXPECT_EQ(Parameters(resumed), averaged);

@@ -14,12 +14,8 @@
 // resumable (frame_loop.h), then the region borders of each translation (contour/) as
 // polylines and an overlay PNG on the real frames.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
-#include <cinttypes>
-#include <csignal>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <numeric>
@@ -34,6 +30,7 @@
 #include "stages/frame_loop.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
+#include "train/controller.h"
 #include "synth/appearance.h"
 #include "util/bytes.h"
 #include "util/errors.h"
@@ -387,10 +384,9 @@ std::vector<uint8_t> ResizedImages(const ImageShard& shard, int64_t first, int c
   return out;
 }
 
-// The options that define what training computes; the others (steps, checkpoint and preview
-// cadence, threads, device, paths of side outputs) may change between a run and its
-// continuation.
-std::string TrainingIdentity(const DeepfakeTrainOptions& o) {
+// The options with those that may change between a run and its continuation (steps,
+// checkpoint and preview cadence, threads, device, paths of side outputs) at their defaults.
+DeepfakeTrainOptions IdentityOptions(const DeepfakeTrainOptions& o) {
   DeepfakeTrainOptions id = o;
   const DeepfakeTrainOptions defaults;
   id.steps = defaults.steps;
@@ -402,9 +398,7 @@ std::string TrainingIdentity(const DeepfakeTrainOptions& o) {
   id.threads = defaults.threads;
   id.progress_seconds = defaults.progress_seconds;
   id.out = defaults.out;
-  io::Config config;
-  io::StoreOptions(id, "deepfake.train", &config);
-  return io::ConfigHash(config.ToToml());
+  return id;
 }
 
 // The learning rates' factor at `step` (0-based) of `steps`: 1, then over the last
@@ -414,43 +408,6 @@ double LearningRateScale(int64_t step, int64_t steps, double decay_fraction) {
   const int64_t left = steps - step;  // steps left, this one included
   if (decay <= 0 || left > decay) return 1.0;
   return static_cast<double>(std::max<int64_t>(left, 1)) / static_cast<double>(decay);
-}
-
-// Fault injection for the restart tests: FACECAP_FAULT_AFTER_STEPS=k makes rank 0 send itself
-// SIGTERM (or SIGKILL with FACECAP_FAULT_SIGNAL=KILL) once step k is done. Unset in normal use.
-void MaybeInjectFault(const dist::Comm& comm, int64_t steps_done) {
-  static const char* after = std::getenv("FACECAP_FAULT_AFTER_STEPS");
-  if (!after || !comm.IsMainRank() || steps_done != std::atoll(after)) return;
-  const char* kind = std::getenv("FACECAP_FAULT_SIGNAL");
-  std::raise(kind && std::string(kind) == "KILL" ? SIGKILL : SIGTERM);
-}
-
-std::string HexHash(uint64_t h) {
-  char text[24];
-  std::snprintf(text, sizeof(text), "%016" PRIx64, h);
-  return text;
-}
-
-// Every rank's parameter hash; ParallelConsistencyError on every rank when they differ.
-std::vector<uint64_t> CheckSameWeights(const dist::Comm& comm, nn::DeepfakeModel* model,
-                                       int64_t step) {
-  const uint64_t mine = model->ParameterHash();
-  std::vector<uint8_t> bytes(sizeof(mine));
-  std::memcpy(bytes.data(), &mine, sizeof(mine));
-  std::vector<uint64_t> hashes;
-  for (const auto& b : comm.AllGather(bytes)) {
-    uint64_t h;
-    std::memcpy(&h, b.data(), sizeof(h));
-    hashes.push_back(h);
-  }
-  for (size_t r = 1; r < hashes.size(); ++r) {
-    if (hashes[r] != hashes[0]) {
-      throw ParallelConsistencyError("deepfake train: after step " + std::to_string(step) +
-                                     " rank " + std::to_string(r) + " holds other weights (hash " +
-                                     HexHash(hashes[r]) + ") than rank 0 (" + HexHash(hashes[0]) + ")");
-    }
-  }
-  return hashes;
 }
 
 struct Regions {
@@ -557,306 +514,274 @@ void WriteRegions(io::H5File* f, const Regions& r) {
   f->WriteMatrix("/regions/colors", r.colors);
 }
 
-// Writes the model file or the checkpoint (rank 0).
-void WriteModelFile(const std::string& path, const io::Provenance& provenance,
-                    const std::string& identity, nn::DeepfakeTrainer* trainer,
-                    const nn::TrainingState& state, const Regions& regions,
-                    const std::vector<uint64_t>& rank_hashes,
-                    const std::vector<float>& averaged, double average_decay,
-                    const std::vector<float>& region_weights) {
-  io::H5File f = io::H5File::CreateAtomic(path);
-  f.WriteProvenance(provenance);
-  nn::WriteWeights(&f, &trainer->model());
-  nn::WriteTrainingState(&f, trainer, state);
-  if (!averaged.empty()) nn::WriteAveragedWeights(&f, trainer->model(), averaged.data(), average_decay);
-  f.SetAttribute("/training", "identity_hash", identity);
-  std::string hashes;
-  for (uint64_t h : rank_hashes) hashes += (hashes.empty() ? "" : ",") + HexHash(h);
-  f.SetAttribute("/training", "rank_weight_hashes", hashes);
-  f.SetAttribute("/weights", "hash", HexHash(rank_hashes.at(0)));
-  WriteRegions(&f, regions);
-  // The palette terms' class weights (palette order: the background, then the regions), which
-  // infer's prior correction divides back out.
-  if (!region_weights.empty()) f.WriteVector<float>("/training/region_weights", region_weights);
-  f.Commit();
+// What training reads: this rank's blocks of A, B and the paired clips, A's regions, the model.
+struct TrainingData {
+  ImageShard a, b, paired_image, paired_target;
+  Regions regions;
+  std::unique_ptr<nn::DeepfakeModel> model;
+};
+
+TrainingData ReadTrainingData(const DeepfakeTrainOptions& o, const dist::Comm& comm) {
+  TrainingData d;
+  d.a = ReadShard(o.a, o.a_dataset, comm);
+  d.b = ReadShard(o.b, o.b_dataset, comm, o.b_holdout_every);
+  // Each rank holds its block of every paired clip, so that every person is seen by every rank.
+  for (const std::string& path : o.paired) {
+    const ImageShard image = ReadShard(path, "/frames/image", comm);
+    const ImageShard target = ReadShard(path, "/frames/segmentation", comm);
+    if (image.size != target.size || image.total != target.total) {
+      throw FileIOError(path + ": /frames/image and /frames/segmentation differ in size or count");
+    }
+    Append(image, path, &d.paired_image);
+    Append(target, path, &d.paired_target);
+  }
+  d.regions = ReadRegions(io::H5File::OpenRead(o.a));
+  if (o.augment.randomize_a > 0 && d.regions.names.empty()) {
+    throw FileIOError(o.a + ": randomize_a needs the region names and colours (/regions) of "
+                      "the segmentation renders");
+  }
+  nn::DeepfakeNetworkOptions network = o.network;
+  if (o.palette_head) {
+    if (d.regions.names.empty()) {
+      throw FileIOError(o.a + ": palette_head needs the region names and colours (/regions) "
+                        "of the segmentation renders");
+    }
+    network.palette_colors = static_cast<int>(d.regions.names.size()) + 1;
+  }
+  d.model = std::make_unique<nn::DeepfakeModel>(network, static_cast<uint64_t>(o.seed), o.device);
+  SetModelPalette(d.model.get(), d.regions, o.a);
+  return d;
 }
+
+// The deepfake as the training controller sees it: each step's batch drawn from this rank's
+// shards by Rng(seed, step * 65536 + rank), DeepfakeTrainer's losses and Adam with the
+// learning-rate schedule, and on rank 0 the moving average of the weights.
+class DeepfakeTraining : public train::Network {
+ public:
+  DeepfakeTraining(const DeepfakeTrainOptions& o, const dist::Comm& comm, TrainingData* data)
+      : o_(o), comm_(comm), d_(*data), model_(*data->model), trainer_(&model_, o.loss),
+        size_(o.network.size), image_floats_(3LL * size_ * size_) {
+    const dist::Range share = dist::BlockRange(o.batch, comm.rank(), comm.size());
+    batch_.count = static_cast<int>(share.end - share.begin);
+    batch_.size = size_;
+    share_ = static_cast<double>(batch_.count) / o.batch;
+    for (auto* v : {&batch_.input_a, &batch_.target_a, &batch_.input_b, &batch_.target_b}) {
+      v->resize(batch_.count * image_floats_);
+    }
+    preview_rows_ = static_cast<int>(
+        std::min<int64_t>(o.preview_count, std::min(d_.a.count(), d_.b.count())));
+    preview_a_ = ResizedImages(d_.a, 0, preview_rows_, size_);
+    preview_b_ = ResizedImages(d_.b, 0, preview_rows_, size_);
+    SetUpPalette();
+    SetUpBackgrounds();
+  }
+
+  int NumLosses() const override { return nn::DeepfakeLosses::kCount; }
+  void Backward(int64_t step, double* losses) override {
+    Rng rng(static_cast<uint64_t>(o_.seed), static_cast<uint64_t>(step) * 65536u + comm_.rank());
+    for (int i = 0; i < batch_.count; ++i) AddExample(i, &rng);
+    trainer_.Backward(batch_, share_).ToArray(losses);
+  }
+  float* gradients() override { return trainer_.gradients(); }
+  int64_t num_gradients() const override { return trainer_.num_gradients(); }
+  void Apply(int64_t step) override {
+    trainer_.OptimizerStep(LearningRateScale(step, o_.steps, o_.decay_fraction));
+    if (!averaged_.empty()) {
+      model_.ParametersToHost();
+      nn::UpdateMovingAverage(model_.parameters(), model_.num_parameters(), step + 1,
+                              o_.average_decay, averaged_.data());
+    }
+  }
+  uint64_t ParameterHash() override { return model_.ParameterHash(); }
+
+  void WriteState(io::H5File* f, int64_t steps_done) override {
+    nn::WriteWeights(f, &model_);
+    nn::WriteTrainingState(f, &trainer_, {steps_done, static_cast<uint64_t>(o_.seed)});
+    if (!averaged_.empty()) {
+      nn::WriteAveragedWeights(f, model_, averaged_.data(), o_.average_decay);
+    }
+    f->SetAttribute("/weights", "hash", train::HexHash(model_.ParameterHash()));
+    WriteRegions(f, d_.regions);
+    // The palette terms' class weights (palette order: the background, then the regions),
+    // which infer's prior correction divides back out.
+    if (!region_weights_.empty()) f->WriteVector<float>("/training/region_weights", region_weights_);
+  }
+  void ReadState(const io::H5File& f) override {
+    nn::ReadWeights(f, &model_);
+    nn::ReadTrainingState(f, &trainer_);
+    if (o_.average_decay > 0) {
+      averaged_.resize(model_.num_parameters());
+      if (!nn::ReadAveragedWeights(f, model_, averaged_.data())) {
+        throw FileIOError(f.path() + ": no /averaged_weights to continue the moving average");
+      }
+    }
+  }
+  void BroadcastState(const dist::Comm& comm, bool resumed) override {
+    const int64_t bytes = model_.num_parameters() * static_cast<int64_t>(sizeof(float));
+    comm.Broadcast(model_.parameters(), bytes);
+    model_.ParametersWritten();
+    if (resumed) {
+      const int64_t moments = trainer_.num_gradients() * static_cast<int64_t>(sizeof(float));
+      comm.Broadcast(trainer_.first_moments(), moments);
+      comm.Broadcast(trainer_.second_moments(), moments);
+      trainer_.OptimizerStateWritten();
+      int64_t step = trainer_.step();
+      comm.Broadcast(&step, sizeof(step));
+      trainer_.set_step(step);
+    }
+    // Rank 0 keeps the moving average, every rank's weights being alike.
+    if (comm.IsMainRank() && o_.average_decay > 0 && averaged_.empty()) {
+      model_.ParametersToHost();
+      averaged_.assign(model_.parameters(), model_.parameters() + model_.num_parameters());
+    }
+  }
+
+  std::string FormatLosses(int64_t, const double* w) const override {
+    std::string palette_term;
+    if (o_.loss.palette_weight > 0) palette_term += fmt::format("  palette_a {:.3f}", w[6]);
+    if (o_.loss.region_l1_weight > 0) palette_term += fmt::format("  region_l1_a {:.4f}", w[7]);
+    if (o_.loss.dice_weight > 0) palette_term += fmt::format("  dice_a {:.3f}", w[8]);
+    return fmt::format("recon_a {:.4f}  recon_b {:.4f}{}  image_adv {:.3f}  latent_adv {:.3f}  "
+                       "f_image {:.3f}  f_latent {:.3f}",
+                       w[0], w[1], palette_term, w[2], w[3], w[4], w[5]);
+  }
+  void AfterStep(int64_t done) override {
+    if (o_.preview_every > 0 && done % o_.preview_every == 0) WritePreview();
+  }
+  // The preview grid of paper 000 Fig. 6 (rank 0).
+  void WritePreview() {
+    if (!comm_.IsMainRank()) return;
+    const std::string path = o_.preview.empty() ? WithSuffix(o_.out, "_preview.png") : o_.preview;
+    io::WriteImage(path, trainer_.PreviewGrid(preview_a_.data(), preview_b_.data(), preview_rows_));
+  }
+
+ private:
+  // A's flat region colours (for augment.randomize_a), the sides a mirrored pair swaps, and
+  // the palette terms' class weights.
+  void SetUpPalette() {
+    auto pack = [](float r, float g, float b) {
+      auto q = [](float v) { return static_cast<uint32_t>(std::clamp(std::lround(255.f * v), 0L, 255L)); };
+      return (q(r) << 16) | (q(g) << 8) | q(b);
+    };
+    const Regions& regions = d_.regions;
+    for (size_t r = 0; r < regions.names.size(); ++r) {
+      palette_.colors.push_back(pack(regions.colors(r, 0), regions.colors(r, 1), regions.colors(r, 2)));
+      palette_.kinds.push_back(nn::RegionKindOf(regions.names[r]));
+    }
+    sides_ = nn::SideSwapOf(regions.names, palette_.colors);
+    if (o_.loss.palette_weight > 0 || o_.loss.region_l1_weight > 0 || o_.loss.dice_weight > 0) {
+      const PaletteWeights pw = RegionWeights(regions, {&d_.a, &d_.paired_target}, comm_);
+      trainer_.SetPalette(pw.colors, pw.weights);
+      region_weights_ = pw.weights;
+      if (comm_.IsMainRank()) FC_INFO("deepfake train: region weights of the palette terms {}", pw.summary);
+    }
+    repainted_.resize(3LL * d_.a.size * d_.a.size);
+  }
+
+  // Random backgrounds for the paired frames (augment.random_background): a bank of procedural
+  // backgrounds through the camera's degradations, the same on every rank, and each paired
+  // frame's background mask.
+  void SetUpBackgrounds() {
+    if (!(o_.augment.random_background > 0 && d_.paired_target.count() > 0)) return;
+    const int s = d_.paired_image.size;
+    Rng bank_rng(static_cast<uint64_t>(o_.seed), 0x4241434bu);
+    for (int k = 0; k < 64; ++k) {
+      const uint64_t seed = bank_rng.NextU64();
+      Image8 image(s, s, 3);
+      synth::DegradeFrame(synth::MakeBackground(s, s, seed), Eigen::Vector3f::Ones(), seed, 0,
+                          synth::CameraDegradationOptions{}, &image);
+      background_bank_.push_back(std::move(image));
+    }
+    for (int64_t i = 0; i < d_.paired_target.count(); ++i) {
+      paired_masks_.push_back(nn::BorderBackgroundMask(d_.paired_target.image(i), s));
+    }
+    composite_.resize(3LL * s * s);
+  }
+
+  // Example i of this rank's batch: an A pair (a segmentation render, repainted or not, or a
+  // paired frame of another person with its segmentation) and a B pair.
+  void AddExample(int i, Rng* rng) {
+    const int64_t ia = rng->UniformInt(d_.a.count()), ib = rng->UniformInt(d_.b.count());
+    const uint8_t* input_a = nullptr;
+    const ImageShard* target_a = &d_.a;
+    int64_t index_a = ia;
+    nn::PairKind kind_a = nn::PairKind::kSegmentation;
+    if (!o_.paired.empty() && rng->Uniform() < o_.paired_fraction) {
+      // A paired example: a camera-like frame of another person, its true segmentation.
+      index_a = rng->UniformInt(d_.paired_target.count());
+      target_a = &d_.paired_target;
+      input_a = d_.paired_image.image(index_a);
+      kind_a = nn::PairKind::kPairedCamera;
+      if (!background_bank_.empty() && rng->Uniform() < o_.augment.random_background) {
+        const Image8& background = background_bank_[rng->UniformInt(background_bank_.size())];
+        nn::ReplaceBackground(input_a, background.data.data(), paired_masks_[index_a],
+                              d_.paired_image.size, composite_.data());
+        input_a = composite_.data();
+      }
+    } else if (o_.augment.randomize_a > 0 && rng->Uniform() < o_.augment.randomize_a) {
+      nn::RepaintSegmentation(d_.a.image(ia), d_.a.size, palette_, rng, repainted_.data());
+      input_a = repainted_.data();
+    }
+    float* in_a = &batch_.input_a[i * image_floats_];
+    nn::AugmentPair(target_a->image(index_a), target_a->size, size_, o_.augment, kind_a, rng,
+                    in_a, &batch_.target_a[i * image_floats_], input_a, &sides_);
+    if (kind_a == nn::PairKind::kPairedCamera && o_.augment.paired_appearance > 0 &&
+        rng->Uniform() < o_.augment.paired_appearance) {
+      nn::AugmentAppearance(in_a, size_, rng);
+    }
+    nn::AugmentPair(d_.b.image(ib), d_.b.size, size_, o_.augment, nn::PairKind::kCamera, rng,
+                    &batch_.input_b[i * image_floats_], &batch_.target_b[i * image_floats_]);
+  }
+
+  const DeepfakeTrainOptions& o_;
+  const dist::Comm& comm_;
+  const TrainingData& d_;
+  nn::DeepfakeModel& model_;
+  nn::DeepfakeTrainer trainer_;
+  const int size_;
+  const int64_t image_floats_;
+  nn::TrainingBatch batch_;
+  double share_ = 1;
+  int preview_rows_ = 0;
+  std::vector<uint8_t> preview_a_, preview_b_;
+  std::vector<float> averaged_;         // rank 0: the moving average of the weights
+  std::vector<float> region_weights_;   // the palette terms' class weights
+  nn::SegmentationPalette palette_;
+  nn::SideSwap sides_;
+  std::vector<uint8_t> repainted_;
+  std::vector<Image8> background_bank_;
+  std::vector<std::vector<uint8_t>> paired_masks_;
+  std::vector<uint8_t> composite_;
+};
 
 void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
   const auto o = ResolveStageOptions<DeepfakeTrainOptions>(flags, &ctx, &resolved);
   const dist::Comm& comm = ctx.comm;
-  const int size = o.network.size;
   const int threads = ThreadsPerRank(o.threads);
   nn::SetTorchThreads(threads);
-  const std::string identity = TrainingIdentity(o);
-  const std::string checkpoint_path = o.out + ".checkpoint";
-  const std::string preview_path = o.preview.empty() ? WithSuffix(o.out, "_preview.png") : o.preview;
-  const io::Provenance provenance = MakeProvenance(ctx, "deepfake train", resolved);
-
-  // Data: each rank its own block of A and B.
-  ImageShard shard_a, shard_b, paired_image, paired_target;
-  Regions regions;
-  std::unique_ptr<nn::DeepfakeModel> model;
-  std::unique_ptr<nn::DeepfakeTrainer> trainer;
-  dist::CoordinateExceptions(comm, [&] {
-    shard_a = ReadShard(o.a, o.a_dataset, comm);
-    shard_b = ReadShard(o.b, o.b_dataset, comm, o.b_holdout_every);
-    // Each rank holds its block of every paired clip, so that every person is seen by every rank.
-    for (const std::string& path : o.paired) {
-      const ImageShard image = ReadShard(path, "/frames/image", comm);
-      const ImageShard target = ReadShard(path, "/frames/segmentation", comm);
-      if (image.size != target.size || image.total != target.total) {
-        throw FileIOError(path +
-                          ": /frames/image and /frames/segmentation differ in size or count");
-      }
-      Append(image, path, &paired_image);
-      Append(target, path, &paired_target);
-    }
-    regions = ReadRegions(io::H5File::OpenRead(o.a));
-    if (o.augment.randomize_a > 0 && regions.names.empty()) {
-      throw FileIOError(o.a + ": randomize_a needs the region names and colours (/regions) of "
-                        "the segmentation renders");
-    }
-    nn::DeepfakeNetworkOptions network = o.network;
-    if (o.palette_head) {
-      if (regions.names.empty()) {
-        throw FileIOError(o.a + ": palette_head needs the region names and colours (/regions) "
-                          "of the segmentation renders");
-      }
-      network.palette_colors = static_cast<int>(regions.names.size()) + 1;
-    }
-    model = std::make_unique<nn::DeepfakeModel>(network, static_cast<uint64_t>(o.seed), o.device);
-    SetModelPalette(model.get(), regions, o.a);
-    trainer = std::make_unique<nn::DeepfakeTrainer>(model.get(), o.loss);
-  });
+  TrainingData data;
+  dist::CoordinateExceptions(comm, [&] { data = ReadTrainingData(o, comm); });
   if (comm.IsMainRank()) {
     FC_INFO("deepfake train: A {} images {}px, B {} images {}px, network {}px, {} parameters, "
             "{} ranks x {} threads, global batch {}",
-            shard_a.total, shard_a.size, shard_b.total, shard_b.size, size,
-            model->num_parameters(), comm.size(), threads, o.batch);
+            data.a.total, data.a.size, data.b.total, data.b.size, o.network.size,
+            data.model->num_parameters(), comm.size(), threads, o.batch);
     if (!o.paired.empty()) {
       FC_INFO("deepfake train: paired A examples: {} frames of {} clip(s), the first {}, "
               "with their segmentation, {:.0f}% of A",
-              paired_target.total, o.paired.size(), o.paired.front(), 100.0 * o.paired_fraction);
+              data.paired_target.total, o.paired.size(), o.paired.front(), 100.0 * o.paired_fraction);
     }
   }
-
-  // Continue from the checkpoint, or from a finished model trained for fewer steps. Rank 0
-  // keeps the moving average of the weights (average_decay), every rank's weights being alike.
-  std::vector<float> averaged;
-  int64_t start_step = 0;
-  int resumed = 0, from_final_model = 0;
-  dist::CoordinateExceptions(comm, [&] {
-    if (!comm.IsMainRank()) return;
-    std::string source;
-    if (io::H5File::IsHdf5(checkpoint_path)) source = checkpoint_path;
-    else if (io::H5File::IsHdf5(o.out)) source = o.out;
-    if (source.empty()) return;
-    io::H5File f = io::H5File::OpenRead(source);
-    const std::string old = f.HasAttribute("/training", "identity_hash")
-                                ? f.GetStringAttribute("/training", "identity_hash") : "";
-    if (old != identity) {
-      throw InvalidInputError(source + " was trained with other data or options; rerun with the "
-                              "same options to continue it, or delete it to start over");
-    }
-    nn::ReadWeights(f, model.get());
-    start_step = nn::ReadTrainingState(f, trainer.get()).step;
-    if (o.average_decay > 0) {
-      averaged.resize(model->num_parameters());
-      if (!nn::ReadAveragedWeights(f, *model, averaged.data())) {
-        throw FileIOError(source + ": no /averaged_weights to continue the moving average");
-      }
-    }
-    resumed = 1;
-    from_final_model = source == o.out ? 1 : 0;
-    FC_INFO("deepfake train: continuing {} at step {}", source, start_step);
-  });
-  comm.Broadcast(&resumed, sizeof(resumed));
-  comm.Broadcast(&from_final_model, sizeof(from_final_model));
-  comm.Broadcast(&start_step, sizeof(start_step));
-  // Rank 0's weights (initial or resumed) and Adam state on every rank.
-  comm.Broadcast(model->parameters(), model->num_parameters() * static_cast<int64_t>(sizeof(float)));
-  model->ParametersWritten();
-  if (resumed) {
-    comm.Broadcast(trainer->first_moments(), trainer->num_gradients() * static_cast<int64_t>(sizeof(float)));
-    comm.Broadcast(trainer->second_moments(), trainer->num_gradients() * static_cast<int64_t>(sizeof(float)));
-    trainer->OptimizerStateWritten();
-    trainer->set_step(start_step);
-  }
-  if (comm.IsMainRank() && o.average_decay > 0 && averaged.empty()) {
-    model->ParametersToHost();
-    averaged.assign(model->parameters(), model->parameters() + model->num_parameters());
-  }
-  if (from_final_model && start_step >= o.steps) {
-    if (comm.IsMainRank()) FC_INFO("deepfake train: {} is up to date ({} steps)", o.out, start_step);
-    return;
-  }
-
-  // This rank's share of the global batch.
-  const dist::Range share_range = dist::BlockRange(o.batch, comm.rank(), comm.size());
-  const int local_batch = static_cast<int>(share_range.end - share_range.begin);
-  const double share = static_cast<double>(local_batch) / o.batch;
-  const int64_t image_floats = 3LL * size * size;
-  nn::TrainingBatch batch;
-  batch.count = local_batch;
-  batch.size = size;
-  for (auto* v : {&batch.input_a, &batch.target_a, &batch.input_b, &batch.target_b}) {
-    v->resize(local_batch * image_floats);
-  }
-  const int preview_rows = static_cast<int>(std::min<int64_t>(
-      o.preview_count, std::min(shard_a.count(), shard_b.count())));
-  const std::vector<uint8_t> preview_a = ResizedImages(shard_a, 0, preview_rows, size);
-  const std::vector<uint8_t> preview_b = ResizedImages(shard_b, 0, preview_rows, size);
-  auto write_preview = [&] {
-    if (comm.IsMainRank()) {
-      io::WriteImage(preview_path, trainer->PreviewGrid(preview_a.data(), preview_b.data(), preview_rows));
-    }
-  };
-  std::vector<float> region_weights;  // the palette terms' class weights (set below)
-  auto checkpoint = [&](int64_t steps_done, bool final) {
-    const std::vector<uint64_t> hashes = CheckSameWeights(comm, model.get(), steps_done);
-    dist::CoordinateExceptions(comm, [&] {
-      if (!comm.IsMainRank()) return;
-      const nn::TrainingState ts{steps_done, static_cast<uint64_t>(o.seed)};
-      WriteModelFile(final ? o.out : checkpoint_path, provenance, identity, trainer.get(), ts,
-                     regions, hashes, averaged, o.average_decay, region_weights);
-      if (final) std::filesystem::remove(checkpoint_path);
-      FC_INFO("deepfake train: {} at step {}; weights identical on {} rank(s) (hash {})",
-              final ? "model written" : "checkpoint", steps_done, comm.size(), HexHash(hashes[0]));
-    });
-  };
-
-  using Clock = std::chrono::steady_clock;
-  const Clock::time_point start = Clock::now();
-  Clock::time_point last_line = start;
-  double window[nn::DeepfakeLosses::kCount] = {};
-  int window_steps = 0;
-  // The flat colours of A's regions, for repainting A's inputs (augment.randomize_a).
-  nn::SegmentationPalette palette;
-  auto pack = [](float r, float g, float b) {
-    auto q = [](float v) { return static_cast<uint32_t>(std::clamp(std::lround(255.f * v), 0L, 255L)); };
-    return (q(r) << 16) | (q(g) << 8) | q(b);
-  };
-  for (size_t r = 0; r < regions.names.size(); ++r) {
-    palette.colors.push_back(pack(regions.colors(r, 0), regions.colors(r, 1), regions.colors(r, 2)));
-    palette.kinds.push_back(nn::RegionKindOf(regions.names[r]));
-  }
-  // Left and right regions trade colours when a segmentation pair is mirrored.
-  const nn::SideSwap sides = nn::SideSwapOf(regions.names, palette.colors);
-  if (o.loss.palette_weight > 0 || o.loss.region_l1_weight > 0 || o.loss.dice_weight > 0) {
-    const PaletteWeights pw = RegionWeights(regions, {&shard_a, &paired_target}, comm);
-    trainer->SetPalette(pw.colors, pw.weights);
-    region_weights = pw.weights;
-    if (comm.IsMainRank()) FC_INFO("deepfake train: region weights of the palette terms {}", pw.summary);
-  }
-  std::vector<uint8_t> repainted(3LL * shard_a.size * shard_a.size);
-  // Random backgrounds for the paired frames (augment.random_background): a bank of procedural
-  // backgrounds through the camera's degradations, the same on every rank, and each paired
-  // frame's background mask.
-  std::vector<Image8> background_bank;
-  std::vector<std::vector<uint8_t>> paired_masks;
-  std::vector<uint8_t> composite;
-  if (o.augment.random_background > 0 && paired_target.count() > 0) {
-    const int s = paired_image.size;
-    Rng bank_rng(static_cast<uint64_t>(o.seed), 0x4241434bu);
-    for (int k = 0; k < 64; ++k) {
-      const uint64_t seed = bank_rng.NextU64();
-      Image8 image(s, s, 3);
-      synth::DegradeFrame(synth::MakeBackground(s, s, seed), Eigen::Vector3f::Ones(), seed, 0,
-                          synth::CameraDegradationOptions{}, &image);
-      background_bank.push_back(std::move(image));
-    }
-    for (int64_t i = 0; i < paired_target.count(); ++i) {
-      paired_masks.push_back(nn::BorderBackgroundMask(paired_target.image(i), s));
-    }
-    composite.resize(3LL * s * s);
-  }
-  for (int64_t step = start_step; step < o.steps; ++step) {
-    Rng rng(static_cast<uint64_t>(o.seed), static_cast<uint64_t>(step) * 65536u + comm.rank());
-    for (int i = 0; i < local_batch; ++i) {
-      const int64_t ia = rng.UniformInt(shard_a.count()), ib = rng.UniformInt(shard_b.count());
-      const uint8_t* input_a = nullptr;
-      const ImageShard* target_a = &shard_a;
-      int64_t index_a = ia;
-      nn::PairKind kind_a = nn::PairKind::kSegmentation;
-      if (!o.paired.empty() && rng.Uniform() < o.paired_fraction) {
-        // A paired example: a camera-like frame of another person, its true segmentation.
-        index_a = rng.UniformInt(paired_target.count());
-        target_a = &paired_target;
-        input_a = paired_image.image(index_a);
-        kind_a = nn::PairKind::kPairedCamera;
-        if (!background_bank.empty() && rng.Uniform() < o.augment.random_background) {
-          const Image8& background = background_bank[rng.UniformInt(background_bank.size())];
-          nn::ReplaceBackground(input_a, background.data.data(), paired_masks[index_a],
-                                paired_image.size, composite.data());
-          input_a = composite.data();
-        }
-      } else if (o.augment.randomize_a > 0 && rng.Uniform() < o.augment.randomize_a) {
-        nn::RepaintSegmentation(shard_a.image(ia), shard_a.size, palette, &rng, repainted.data());
-        input_a = repainted.data();
-      }
-      nn::AugmentPair(target_a->image(index_a), target_a->size, size, o.augment, kind_a, &rng,
-                      &batch.input_a[i * image_floats], &batch.target_a[i * image_floats],
-                      input_a, &sides);
-      if (kind_a == nn::PairKind::kPairedCamera && o.augment.paired_appearance > 0 &&
-          rng.Uniform() < o.augment.paired_appearance) {
-        nn::AugmentAppearance(&batch.input_a[i * image_floats], size, &rng);
-      }
-      nn::AugmentPair(shard_b.image(ib), shard_b.size, size, o.augment, nn::PairKind::kCamera, &rng,
-                      &batch.input_b[i * image_floats], &batch.target_b[i * image_floats]);
-    }
-    const nn::DeepfakeLosses local = trainer->Backward(batch, share);
-    comm.SumReduce(trainer->gradients(), trainer->num_gradients());
-    trainer->OptimizerStep(LearningRateScale(step, o.steps, o.decay_fraction));
-    if (!averaged.empty()) {
-      model->ParametersToHost();
-      nn::UpdateMovingAverage(model->parameters(), model->num_parameters(), step + 1,
-                              o.average_decay, averaged.data());
-    }
-    MaybeInjectFault(comm, step + 1);
-    // The losses of the global batch and whether any rank was asked to stop, in one reduction.
-    double reduced[nn::DeepfakeLosses::kCount + 1];
-    local.ToArray(reduced);
-    reduced[nn::DeepfakeLosses::kCount] = StopRequested() ? 1.0 : 0.0;
-    comm.SumReduce(reduced, nn::DeepfakeLosses::kCount + 1);
-    for (int k = 0; k < nn::DeepfakeLosses::kCount; ++k) window[k] += reduced[k];
-    ++window_steps;
-    const bool stop = reduced[nn::DeepfakeLosses::kCount] > 0;
-    const int64_t done = step + 1;
-
-    const Clock::time_point now = Clock::now();
-    const double since_line = std::chrono::duration<double>(now - last_line).count();
-    if (comm.IsMainRank() && (since_line >= o.progress_seconds || done == o.steps || stop)) {
-      const double elapsed = std::chrono::duration<double>(now - start).count();
-      const double rate = (done - start_step) / std::max(elapsed, 1e-9);
-      for (double& w : window) w /= window_steps;
-      std::string palette_term;
-      if (o.loss.palette_weight > 0) palette_term += fmt::format("  palette_a {:.3f}", window[6]);
-      if (o.loss.region_l1_weight > 0) palette_term += fmt::format("  region_l1_a {:.4f}", window[7]);
-      if (o.loss.dice_weight > 0) palette_term += fmt::format("  dice_a {:.3f}", window[8]);
-      FC_INFO("deepfake train: step {}/{} ({:.1f}%)  recon_a {:.4f}  recon_b {:.4f}{}  "
-              "image_adv {:.3f}  latent_adv {:.3f}  f_image {:.3f}  f_latent {:.3f}  "
-              "{:.2f} steps/s  ETA {}",
-              done, o.steps, 100.0 * done / o.steps, window[0], window[1], palette_term, window[2],
-              window[3], window[4], window[5], rate, Progress::FormatSeconds((o.steps - done) / rate));
-      std::fill(std::begin(window), std::end(window), 0.0);
-      window_steps = 0;
-      last_line = now;
-    }
-    if (o.preview_every > 0 && done % o.preview_every == 0) write_preview();
-    if (stop) {
-      checkpoint(done, false);
-      throw InterruptedError("deepfake train: stopped by signal " + std::to_string(StopSignal()) +
-                             " at step " + std::to_string(done) + "; " + checkpoint_path +
-                             " holds the checkpoint, rerun the same command to continue");
-    }
-    if (o.checkpoint_every > 0 && done % o.checkpoint_every == 0 && done < o.steps) {
-      checkpoint(done, false);
-    }
-  }
-  checkpoint(std::max<int64_t>(o.steps, start_step), true);
-  write_preview();
+  DeepfakeTraining network(o, comm, &data);
+  train::ControllerOptions control = TrainingControl(ctx, resolved, "deepfake train",
+                                                     "deepfake.train", o.out, IdentityOptions(o));
+  control.steps = o.steps;
+  control.checkpoint_every = o.checkpoint_every;
+  control.progress_seconds = o.progress_seconds;
+  control.continue_finished = true;
+  if (!train::Train(control, comm, &network).up_to_date) network.WritePreview();
 }
 
 // --------------------------------------------------------------------------------------------

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <csignal>
 #include <cstring>
 #include <string>
 
@@ -28,27 +27,6 @@ int ThreadsPerRank(int requested) {
   }
   return std::max(1, omp_get_num_procs() / local_ranks);
 }
-
-namespace {
-
-// Fault injection for the restart tests: FACECAP_FAULT_AFTER_FRAMES=N makes rank
-// FACECAP_FAULT_RANK (default 0), once N frames are committed, either kill itself
-// (FACECAP_FAULT_SIGNAL=KILL: no checkpoint beyond what is on disk, as a crash, an OOM kill or
-// a lost node) or send itself SIGTERM (the default: as Slurm does before a time limit). Unset
-// in normal use.
-void MaybeInjectFault(int rank, int64_t committed) {
-  static const char* after = std::getenv("FACECAP_FAULT_AFTER_FRAMES");
-  if (!after || committed < std::atoll(after)) return;
-  const char* fault_rank = std::getenv("FACECAP_FAULT_RANK");
-  if (rank != (fault_rank ? std::atoi(fault_rank) : 0)) return;
-  static bool fired = false;
-  if (fired) return;
-  fired = true;
-  const char* kind = std::getenv("FACECAP_FAULT_SIGNAL");
-  std::raise(kind && std::string(kind) == "KILL" ? SIGKILL : SIGTERM);
-}
-
-}  // namespace
 
 int64_t RunFrameLoop(const dist::Comm& comm, std::vector<int64_t> pending, int64_t total,
                      const FrameLoopOptions& options, const FrameCompute& compute,
@@ -131,7 +109,7 @@ int64_t RunFrameLoop(const dist::Comm& comm, std::vector<int64_t> pending, int64
       commit(frames, ordered);
       progress.Update(total - num_pending + round_begin + round_size);
     });
-    MaybeInjectFault(comm.rank(), total - num_pending + round_begin + round_size);
+    MaybeInjectFault("FACECAP_FAULT_AFTER_FRAMES", comm.rank(), total - num_pending + round_begin + round_size);
     if (comm.AnyTrue(StopRequested()) && round_begin + round_size < num_pending) {
       throw InterruptedError(options.what + ": stopped by signal after " +
                              std::to_string(total - num_pending + round_begin + round_size) +

@@ -14,7 +14,6 @@
 // state after each round: a stopped or killed fit continues from its last round when rerun.
 #include <algorithm>
 #include <cmath>
-#include <csignal>
 #include <cstdlib>
 #include <mutex>
 
@@ -161,16 +160,6 @@ void PutPose(ByteWriter* w, const rig::RigidPose& p) {
 }
 
 rig::RigidPose GetPose(ByteReader* r) { return PoseFromRow(r->GetVector<float>().data()); }
-
-// Fault injection for the restart tests: FACECAP_FAULT_AFTER_ROUNDS=r makes rank 0 send itself
-// SIGTERM (or SIGKILL with FACECAP_FAULT_SIGNAL=KILL) once round r is checkpointed. Unset in
-// normal use.
-void MaybeInjectFault(const dist::Comm& comm, int64_t rounds_done) {
-  static const char* after = std::getenv("FACECAP_FAULT_AFTER_ROUNDS");
-  if (!after || !comm.IsMainRank() || rounds_done != std::atoll(after)) return;
-  const char* kind = std::getenv("FACECAP_FAULT_SIGNAL");
-  std::raise(kind && std::string(kind) == "KILL" ? SIGKILL : SIGTERM);
-}
 
 // The inputs of a fit, read and checked on every rank.
 struct PersonFitInputs {
@@ -615,7 +604,7 @@ void RunRound(const PersonFitSetup& setup, int64_t round, FrameTargets* targets,
   comm.Broadcast(state->landmarks_only.data(), K * sizeof(double));
   comm.Broadcast(&state->pose);
   comm.Broadcast(&state->weights);
-  MaybeInjectFault(comm, round + 1);
+  MaybeInjectFault("FACECAP_FAULT_AFTER_ROUNDS", comm.rank(), round + 1);
   if (comm.AnyTrue(StopRequested()) && round + 1 < setup.rounds) {
     throw InterruptedError("person fit: stopped by signal after round " +
                            std::to_string(round + 1) + " of " + std::to_string(setup.rounds) +

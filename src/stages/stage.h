@@ -8,6 +8,7 @@
 #include "dist/comm.h"
 #include "io/config.h"
 #include "io/hdf5.h"
+#include "train/controller.h"
 
 namespace facecap::stages {
 
@@ -20,6 +21,24 @@ struct StageContext {
 // Provenance for an output of `stage` whose resolved options are `resolved`.
 io::Provenance MakeProvenance(const StageContext& ctx, const std::string& stage,
                               const io::Config& resolved);
+
+// The training controller's options for the trainer of `stage` (train/controller.h): its
+// name, provenance and model file `out`, and as its identity the hash of `identity_options`
+// (the stage's options with those that may change between a run and its continuation reset)
+// stored under `table`. The caller sets the steps and cadences.
+template <class Options>
+train::ControllerOptions TrainingControl(const StageContext& ctx, const io::Config& resolved,
+                                         const std::string& stage, const std::string& table,
+                                         const std::string& out, const Options& identity_options) {
+  train::ControllerOptions control;
+  control.name = stage;
+  control.out = out;
+  control.provenance = MakeProvenance(ctx, stage, resolved);
+  io::Config config;
+  io::StoreOptions(identity_options, table, &config);
+  control.identity = io::ConfigHash(config.ToToml());
+  return control;
+}
 
 }  // namespace facecap::stages
 
