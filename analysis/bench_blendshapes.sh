@@ -21,7 +21,7 @@ cat "$OUT/table.md"
 echo "== training efficiency, 1 vs 2 ranks (1 thread per rank, same global batch) =="
 steps_per_second() {  # ranks
   local out="$OUT/bench_ranks$1.h5"
-  rm -f "$out" "$out.partial"
+  rm -f "$out" "$out.checkpoint"
   # The stage logs "N steps in S s (...)": steps per second from that line.
   $MPIRUN -n "$1" "$FACECAP" blendshapes train --job "$JOB" --threads 1 --estimation-epochs 3 \
       --tuning-epochs 1 --out "$out" 2>&1 | sed -n 's/.* \([0-9]*\) steps in \([0-9.]*\) s .*/\1 \2/p' |
