@@ -120,14 +120,9 @@ void ForEachRun(const std::vector<int64_t>& frames, Fn&& write) {
   }
 }
 
-}  // namespace
-
-IngestSummary ReadIngestSummary(const std::string& path) {
-  io::H5File f = io::H5File::OpenRead(path);
+// Counts of each frame status and input flag.
+IngestSummary SummaryOf(const std::vector<int32_t>& status, const std::vector<int32_t>& flags) {
   IngestSummary s;
-  const std::vector<int32_t> status = f.ReadVector<int32_t>("/frames/status");
-  const std::vector<int32_t> flags =
-      f.ReadVector<int32_t>("/frames/input_flags", static_cast<int64_t>(status.size()));
   s.frames = static_cast<int64_t>(status.size());
   for (int32_t v : status) {
     s.found += v == kFrameFound;
@@ -144,110 +139,135 @@ IngestSummary ReadIngestSummary(const std::string& path) {
   return s;
 }
 
-IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const io::Config& resolved) {
-  const auto start = std::chrono::steady_clock::now();
-  const dist::Comm& comm = ctx.comm;
-  const int threads = ThreadsPerRank(o.threads);
-  const std::string input = o.video.empty() ? o.images : o.video;
+// The per-frame datasets of the output, for n frames of S-pixel crops.
+void CreateIngestDatasets(io::H5File* f, int64_t n, int S) {
+  f->CreateFrames<float>("/detections/boxes", {kMaxFaces, 5}, n, 256);
+  f->SetAttribute("/detections/boxes", "columns", std::string("x, y, width, height, score (source pixels), largest first"));
+  f->CreateFrames<int32_t>("/detections/count", {}, n, 1024);
+  f->CreateFrames<int32_t>("/frames/image_size", {2}, n, 1024);
+  f->SetAttribute("/frames/image_size", "columns", std::string("width, height (source pixels)"));
+  f->CreateFrames<int32_t>("/frames/input_flags", {}, n, 1024);
+  f->SetAttribute("/frames/input_flags", "bits", std::string("1 grayscale, 2 16-bit, 4 float, 8 alpha dropped, 16 scaled down"));
+  f->CreateFrames<int32_t>("/frames/status", {}, n, 1024);
+  f->SetAttribute("/frames/status", "values", std::string("0 found, 1 no_face, 2 face_too_small, 3 unreadable, 4 subject_absent"));
+  f->CreateFrames<uint8_t>("/frames/found", {}, n, 1024);
+  f->CreateFrames<float>("/frames/landmarks", {kL, 2}, n, 64);
+  f->SetAttribute("/frames/landmarks", "units", std::string("source pixels (x right, y down), iBUG 68 order"));
+  f->CreateFrames<float>("/frames/landmarks_crop", {kL, 2}, n, 64);
+  f->SetAttribute("/frames/landmarks_crop", "units", std::string("crop pixels (x right, y down), iBUG 68 order"));
+  f->CreateFrames<float>("/frames/crop_transform", {2, 3}, n, 256);
+  f->SetAttribute("/frames/crop_transform", "meaning", std::string("[s R | t]: source pixels -> crop pixels"));
+  f->CreateFrames<uint8_t>("/frames/crop", {S, S, 3}, n, 8);
+  f->SetAttribute("/frames/crop", "layout", std::string("frame, y, x, RGB"));
+}
 
-  // Every rank opens the input (one reader per thread) and loads the models.
-  std::vector<std::unique_ptr<face::FrameSource>> sources(threads);
-  std::vector<std::unique_ptr<face::FaceAnalyzer>> analyzers(threads);
-  std::vector<int64_t> selected;
-  dist::CoordinateExceptions(comm, [&] {
-    for (int t = 0; t < threads; ++t) {
-      sources[t] = o.video.empty() ? face::FrameSource::OpenImages(o.images, o.max_image_pixels)
-                                   : face::FrameSource::OpenVideo(o.video, o.max_image_pixels);
-    }
-    selected = SelectFrames(*sources[0], o);
-    analyzers[0] = std::make_unique<face::FaceAnalyzer>(o.Analyzer());
-    for (int t = 1; t < threads; ++t) analyzers[t] = analyzers[0]->Clone();
-  });
+// Where each selected frame comes from, the crop settings and the assumed camera (a new output).
+void WriteSourceRecords(io::H5File* f, const face::FrameSource& source,
+                        const std::vector<int64_t>& selected, const IngestOptions& o) {
   const int64_t n = static_cast<int64_t>(selected.size());
-  const face::FrameSource& source = *sources[0];
-  const int S = o.crop_size;
-  const face::CropOptions crop_options{o.crop_size, o.crop_padding, o.crop_raise};
+  std::vector<int64_t> index(selected);
+  std::vector<int32_t> file_id(n);
+  std::vector<double> timecode(n);
+  for (int64_t k = 0; k < n; ++k) {
+    file_id[k] = source.FileIdOf(selected[k]);
+    timecode[k] = source.TimecodeOf(selected[k]);
+  }
+  f->WriteVector("/frames/source_index", index);
+  f->SetAttribute("/frames/source_index", "meaning", std::string("frame index in the video, or image index in the folder"));
+  f->WriteVector("/frames/source_file_id", file_id);
+  f->SetAttribute("/frames/source_file_id", "meaning", std::string("row of /sources/files"));
+  f->WriteVector("/frames/timecode", timecode);
+  f->SetAttribute("/frames/timecode", "units", std::string("seconds from the start of the video (-1: still image)"));
+  f->WriteStrings("/sources/files", source.Files());
+  f->SetAttribute("/sources/files", "fps", source.Fps());
+  f->SetAttribute("/sources/files", "num_frames", source.NumFrames());
+  f->SetAttribute("/", "crop_padding", o.crop_padding);
+  f->SetAttribute("/", "crop_raise", o.crop_raise);
+  f->WriteVector<double>("/camera/fov_deg", {o.fov_deg});
+  f->SetAttribute("/camera/fov_deg", "meaning",
+                  std::string("vertical field of view of the source camera (degrees), as "
+                              "assumed by ingest's fov_deg; principal point at the image "
+                              "centre, square pixels"));
+}
 
-  // Rank 0 opens (or continues) the output.
-  ResumableOutput output;
-  int up_to_date = 0;
-  std::vector<int64_t> pending_detect;
-  dist::CoordinateExceptions(comm, [&] {
-    if (!comm.IsMainRank()) return;
-    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "ingest", resolved));
-    if (output.up_to_date) {
-      up_to_date = 1;
-      return;
-    }
-    io::H5File& f = output.file;
-    f.CreateFrames<float>("/detections/boxes", {kMaxFaces, 5}, n, 256);
-    f.SetAttribute("/detections/boxes", "columns", std::string("x, y, width, height, score (source pixels), largest first"));
-    f.CreateFrames<int32_t>("/detections/count", {}, n, 1024);
-    f.CreateFrames<int32_t>("/frames/image_size", {2}, n, 1024);
-    f.SetAttribute("/frames/image_size", "columns", std::string("width, height (source pixels)"));
-    f.CreateFrames<int32_t>("/frames/input_flags", {}, n, 1024);
-    f.SetAttribute("/frames/input_flags", "bits", std::string("1 grayscale, 2 16-bit, 4 float, 8 alpha dropped, 16 scaled down"));
-    f.CreateFrames<int32_t>("/frames/status", {}, n, 1024);
-    f.SetAttribute("/frames/status", "values", std::string("0 found, 1 no_face, 2 face_too_small, 3 unreadable, 4 subject_absent"));
-    f.CreateFrames<uint8_t>("/frames/found", {}, n, 1024);
-    f.CreateFrames<float>("/frames/landmarks", {kL, 2}, n, 64);
-    f.SetAttribute("/frames/landmarks", "units", std::string("source pixels (x right, y down), iBUG 68 order"));
-    f.CreateFrames<float>("/frames/landmarks_crop", {kL, 2}, n, 64);
-    f.SetAttribute("/frames/landmarks_crop", "units", std::string("crop pixels (x right, y down), iBUG 68 order"));
-    f.CreateFrames<float>("/frames/crop_transform", {2, 3}, n, 256);
-    f.SetAttribute("/frames/crop_transform", "meaning", std::string("[s R | t]: source pixels -> crop pixels"));
-    f.CreateFrames<uint8_t>("/frames/crop", {S, S, 3}, n, 8);
-    f.SetAttribute("/frames/crop", "layout", std::string("frame, y, x, RGB"));
-    if (!output.resumed) {
-      std::vector<int64_t> index(selected);
-      std::vector<int32_t> file_id(n);
-      std::vector<double> timecode(n);
-      for (int64_t k = 0; k < n; ++k) {
-        file_id[k] = source.FileIdOf(selected[k]);
-        timecode[k] = source.TimecodeOf(selected[k]);
+// One ingest run: the input opened on every rank (one reader and one analyzer per thread),
+// the output on rank 0, and the three passes over the selected frames.
+class IngestRun {
+ public:
+  IngestRun(const IngestOptions& o, const StageContext& ctx, const io::Config& resolved)
+      : o_(o), ctx_(ctx), resolved_(resolved), comm_(ctx.comm), threads_(ThreadsPerRank(o.threads)),
+        input_(o.video.empty() ? o.images : o.video) {
+    sources_.resize(threads_);
+    analyzers_.resize(threads_);
+    dist::CoordinateExceptions(comm_, [&] {
+      for (int t = 0; t < threads_; ++t) {
+        sources_[t] = o.video.empty() ? face::FrameSource::OpenImages(o.images, o.max_image_pixels)
+                                      : face::FrameSource::OpenVideo(o.video, o.max_image_pixels);
       }
-      f.WriteVector("/frames/source_index", index);
-      f.SetAttribute("/frames/source_index", "meaning", std::string("frame index in the video, or image index in the folder"));
-      f.WriteVector("/frames/source_file_id", file_id);
-      f.SetAttribute("/frames/source_file_id", "meaning", std::string("row of /sources/files"));
-      f.WriteVector("/frames/timecode", timecode);
-      f.SetAttribute("/frames/timecode", "units", std::string("seconds from the start of the video (-1: still image)"));
-      f.WriteStrings("/sources/files", source.Files());
-      f.SetAttribute("/sources/files", "fps", source.Fps());
-      f.SetAttribute("/sources/files", "num_frames", source.NumFrames());
-      f.SetAttribute("/", "crop_padding", o.crop_padding);
-      f.SetAttribute("/", "crop_raise", o.crop_raise);
-      f.WriteVector<double>("/camera/fov_deg", {o.fov_deg});
-      f.SetAttribute("/camera/fov_deg", "meaning",
-                     std::string("vertical field of view of the source camera (degrees), as "
-                                 "assumed by ingest's fov_deg; principal point at the image "
-                                 "centre, square pixels"));
-    }
-    io::DoneMask detected(&f, n, "/progress/detected");
-    pending_detect = detected.Pending();
-    if (output.resumed) {
-      FC_INFO("ingest: continuing {}: {} of {} frames detected", io::H5File::PartialPath(o.out),
-              detected.NumDone(), n);
-    }
-  });
-  comm.Broadcast(&up_to_date, sizeof(up_to_date));
-  if (up_to_date) {
-    IngestSummary s;
-    if (comm.IsMainRank()) {
-      s = ReadIngestSummary(o.out);
-      FC_INFO("ingest: {} is up to date; {}", o.out, s.Line());
-    }
-    return s;
+      selected_ = SelectFrames(*sources_[0], o);
+      analyzers_[0] = std::make_unique<face::FaceAnalyzer>(o.Analyzer());
+      for (int t = 1; t < threads_; ++t) analyzers_[t] = analyzers_[0]->Clone();
+    });
+    n_ = static_cast<int64_t>(selected_.size());
   }
 
-  // Pass 1: decode and detect.
-  FrameLoopOptions loop;
-  loop.what = "ingest detect";
-  loop.batch = o.batch;
-  loop.threads = threads;
-  int64_t unreadable_logged = 0;
-  auto detect = [&](int64_t k, int thread) {
-    face::DecodedFrame frame = sources[thread]->Read(selected[k]);
+  // `start`: when the run began (for the frame rate).
+  IngestSummary Run(std::chrono::steady_clock::time_point start) {
+    if (OpenOutput()) {
+      IngestSummary s;
+      if (comm_.IsMainRank()) {
+        s = ReadIngestSummary(o_.out);
+        FC_INFO("ingest: {} is up to date; {}", o_.out, s.Line());
+      }
+      return s;
+    }
+    FrameLoopOptions loop;
+    loop.what = "ingest detect";
+    loop.batch = o_.batch;
+    loop.threads = threads_;
+    RunFrameLoop(
+        comm_, pending_detect_, n_, loop, [&](int64_t k, int thread) { return Detect(k, thread); },
+        [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
+          CommitDetections(frames, results);
+        });
+    PlanSubject();
+    loop.what = "ingest landmarks";
+    RunFrameLoop(
+        comm_, pending_landmarks_, n_, loop, [&](int64_t k, int thread) { return Landmark(k, thread); },
+        [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
+          CommitLandmarks(frames, results);
+        });
+    return Finish(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+
+ private:
+  // Rank 0 opens (or continues) the output; true on every rank when it is up to date.
+  bool OpenOutput() {
+    int up_to_date = 0;
+    dist::CoordinateExceptions(comm_, [&] {
+      if (!comm_.IsMainRank()) return;
+      output_ = OpenResumableOutput(o_.out, resolved_.ToToml(), MakeProvenance(ctx_, "ingest", resolved_));
+      if (output_.up_to_date) {
+        up_to_date = 1;
+        return;
+      }
+      io::H5File& f = output_.file;
+      CreateIngestDatasets(&f, n_, o_.crop_size);
+      if (!output_.resumed) WriteSourceRecords(&f, *sources_[0], selected_, o_);
+      io::DoneMask detected(&f, n_, "/progress/detected");
+      pending_detect_ = detected.Pending();
+      if (output_.resumed) {
+        FC_INFO("ingest: continuing {}: {} of {} frames detected", io::H5File::PartialPath(o_.out),
+                detected.NumDone(), n_);
+      }
+    });
+    comm_.Broadcast(&up_to_date, sizeof(up_to_date));
+    return up_to_date != 0;
+  }
+
+  // Pass 1: decode frame k and detect its faces.
+  std::vector<uint8_t> Detect(int64_t k, int thread) {
+    face::DecodedFrame frame = sources_[thread]->Read(selected_[k]);
     ByteWriter w;
     w.Put<int32_t>(frame.ok ? 1 : 0);
     w.Put<int32_t>(frame.input_flags);
@@ -255,7 +275,7 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
     w.Put<int32_t>(frame.source_height);
     std::vector<float> boxes;
     if (frame.ok) {
-      const std::vector<face::FaceBox> faces = analyzers[thread]->Detect(frame.image);
+      const std::vector<face::FaceBox> faces = analyzers_[thread]->Detect(frame.image);
       const double s = frame.source_scale;
       for (size_t j = 0; j < faces.size() && j < static_cast<size_t>(kMaxFaces); ++j) {
         const face::FaceBox& b = faces[j];
@@ -268,10 +288,11 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
     w.PutVector(boxes);
     w.PutVector(std::vector<char>(frame.error.begin(), frame.error.end()));
     return std::move(w.bytes());
-  };
-  auto commit_detect = [&](const std::vector<int64_t>& frames,
-                           const std::vector<std::vector<uint8_t>>& results) {
-    io::H5File& f = output.file;
+  }
+
+  void CommitDetections(const std::vector<int64_t>& frames,
+                        const std::vector<std::vector<uint8_t>>& results) {
+    io::H5File& f = output_.file;
     ForEachRun(frames, [&](int64_t first, int64_t count, size_t begin) {
       std::vector<float> boxes(count * kMaxFaces * 5, 0.f);
       std::vector<int32_t> num(count), size(count * 2), flags(count), status(count);
@@ -287,8 +308,8 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
         std::copy(b.begin(), b.end(), boxes.begin() + j * kMaxFaces * 5);
         // Provisional status; the subject pass sets the final one.
         status[j] = ok ? (num[j] ? kFrameFound : kFrameNoFace) : kFrameUnreadable;
-        if (!ok && unreadable_logged++ < 5) {
-          FC_WARN("ingest: frame {} (source {}) is unreadable: {}", first + j, selected[first + j],
+        if (!ok && unreadable_logged_++ < 5) {
+          FC_WARN("ingest: frame {} (source {}) is unreadable: {}", first + j, selected_[first + j],
                   std::string(error.begin(), error.end()));
         }
       }
@@ -298,98 +319,102 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
       f.WriteFrames<int32_t>("/frames/input_flags", first, count, flags.data());
       f.WriteFrames<int32_t>("/frames/status", first, count, status.data());
     });
-    io::DoneMask mask(&f, n, "/progress/detected");
+    io::DoneMask mask(&f, n_, "/progress/detected");
     mask.MarkDone(frames);
-  };
-  RunFrameLoop(comm, pending_detect, n, loop, detect, commit_detect);
+  }
 
-  // Pass 2: follow the subject over the boxes of all frames (rank 0), then share the plan.
-  std::vector<int32_t> plan_status(n, kFrameNoFace);
-  std::vector<float> plan_box(n * 5, 0.f);
-  std::vector<int64_t> pending_landmarks;
-  dist::CoordinateExceptions(comm, [&] {
-    if (!comm.IsMainRank()) return;
-    io::H5File& f = output.file;
-    const std::vector<float> boxes = f.Read<float>("/detections/boxes", {n, kMaxFaces, 5});
-    const std::vector<int32_t> count = f.ReadVector<int32_t>("/detections/count", n);
-    const std::vector<int32_t> provisional = f.ReadVector<int32_t>("/frames/status", n);
-    // What the detector can see: faces narrower than this are not found and count as no_face.
-    const std::vector<int32_t> image_size = f.Read<int32_t>("/frames/image_size", {n, 2});
-    for (int64_t k = 0; k < n; ++k) {
+  // Rank 0: the smallest face the detector can find at the first readable frame's size.
+  void LogSmallestFace(io::H5File* f, const std::vector<int32_t>& provisional) {
+    const std::vector<int32_t> image_size = f->Read<int32_t>("/frames/image_size", {n_, 2});
+    for (int64_t k = 0; k < n_; ++k) {
       if (provisional[k] == kFrameUnreadable) continue;
       double w = image_size[2 * k], h = image_size[2 * k + 1];
-      const double budget = std::sqrt(static_cast<double>(o.max_image_pixels) / std::max(1.0, w * h));
+      const double budget = std::sqrt(static_cast<double>(o_.max_image_pixels) / std::max(1.0, w * h));
       const double to_source = budget < 1.0 ? 1.0 / budget : 1.0;  // source px per processed px
       w /= to_source;
       h /= to_source;
-      const double first = analyzers[0]->SmallestFace(static_cast<int>(w), static_cast<int>(h)) * to_source;
-      const double smallest = analyzers[0]->SmallestFaceWithSearch(static_cast<int>(w), static_cast<int>(h)) * to_source;
+      const double first = analyzers_[0]->SmallestFace(static_cast<int>(w), static_cast<int>(h)) * to_source;
+      const double smallest = analyzers_[0]->SmallestFaceWithSearch(static_cast<int>(w), static_cast<int>(h)) * to_source;
       FC_INFO("ingest: at {}x{}{} faces narrower than about {:.0f} px are not found ({:.0f} px "
               "before the small-face search); narrower than min_face_size {} px: too small",
-              image_size[2 * k], image_size[2 * k + 1], o.video.empty() ? " (the first image)" : "",
-              smallest, first, o.min_face_size);
-      if (!o.video.empty()) f.SetAttribute("/frames", "smallest_face_found", smallest);
+              image_size[2 * k], image_size[2 * k + 1], o_.video.empty() ? " (the first image)" : "",
+              smallest, first, o_.min_face_size);
+      if (!o_.video.empty()) f->SetAttribute("/frames", "smallest_face_found", smallest);
       break;
     }
-    std::vector<std::vector<face::FaceBox>> faces(n);
-    for (int64_t k = 0; k < n; ++k) {
-      for (int j = 0; j < count[k]; ++j) {
-        const float* b = &boxes[(k * kMaxFaces + j) * 5];
-        faces[k].push_back(face::FaceBox{b[0], b[1], b[2], b[3], b[4]});
-      }
-    }
-    // A video follows one subject from frame to frame; the images of a folder are unrelated
-    // stills (other sizes, framings, people), so each keeps its largest face.
-    std::vector<int> chosen(n, -1);
-    if (o.video.empty()) {
-      for (int64_t k = 0; k < n; ++k) chosen[k] = faces[k].empty() ? -1 : 0;
-    } else {
-      chosen = face::FollowSubject(faces, face::SubjectTrackerOptions{o.track_min_iou, o.track_max_gap});
-    }
-    for (int64_t k = 0; k < n; ++k) {
-      if (provisional[k] == kFrameUnreadable) {
-        plan_status[k] = kFrameUnreadable;
-      } else if (faces[k].empty()) {
-        plan_status[k] = kFrameNoFace;
-      } else if (chosen[k] < 0) {
-        plan_status[k] = kFrameSubjectAbsent;
-      } else {
-        const face::FaceBox& b = faces[k][chosen[k]];
-        plan_status[k] = b.width < o.min_face_size ? kFrameFaceTooSmall : kFrameFound;
-        const float values[5] = {b.x, b.y, b.width, b.height, b.score};
-        std::copy(values, values + 5, plan_box.begin() + k * 5);
-      }
-    }
-    if (!f.Exists("/frames/box")) {
-      f.WriteMatrix("/frames/box", Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, 5, Eigen::RowMajor>>(
-                                       plan_box.data(), n, 5));
-      f.SetAttribute("/frames/box", "columns", std::string("x, y, width, height, score of the subject's face (source pixels; zeros: none)"));
-    }
-    io::DoneMask done(&f, n, "/progress/done");
-    pending_landmarks = done.Pending();
-  });
-  comm.Broadcast(&plan_status);
-  comm.Broadcast(&plan_box);
+  }
 
-  // Pass 3: landmarks and aligned crops of the subject's face.
-  loop.what = "ingest landmarks";
-  auto landmark = [&](int64_t k, int thread) {
+  // Pass 2: follow the subject over the boxes of all frames (rank 0), then share the plan.
+  void PlanSubject() {
+    plan_status_.assign(n_, kFrameNoFace);
+    plan_box_.assign(n_ * 5, 0.f);
+    dist::CoordinateExceptions(comm_, [&] {
+      if (!comm_.IsMainRank()) return;
+      io::H5File& f = output_.file;
+      const std::vector<float> boxes = f.Read<float>("/detections/boxes", {n_, kMaxFaces, 5});
+      const std::vector<int32_t> count = f.ReadVector<int32_t>("/detections/count", n_);
+      const std::vector<int32_t> provisional = f.ReadVector<int32_t>("/frames/status", n_);
+      LogSmallestFace(&f, provisional);
+      std::vector<std::vector<face::FaceBox>> faces(n_);
+      for (int64_t k = 0; k < n_; ++k) {
+        for (int j = 0; j < count[k]; ++j) {
+          const float* b = &boxes[(k * kMaxFaces + j) * 5];
+          faces[k].push_back(face::FaceBox{b[0], b[1], b[2], b[3], b[4]});
+        }
+      }
+      // A video follows one subject from frame to frame; the images of a folder are unrelated
+      // stills (other sizes, framings, people), so each keeps its largest face.
+      std::vector<int> chosen(n_, -1);
+      if (o_.video.empty()) {
+        for (int64_t k = 0; k < n_; ++k) chosen[k] = faces[k].empty() ? -1 : 0;
+      } else {
+        chosen = face::FollowSubject(faces, face::SubjectTrackerOptions{o_.track_min_iou, o_.track_max_gap});
+      }
+      for (int64_t k = 0; k < n_; ++k) {
+        if (provisional[k] == kFrameUnreadable) {
+          plan_status_[k] = kFrameUnreadable;
+        } else if (faces[k].empty()) {
+          plan_status_[k] = kFrameNoFace;
+        } else if (chosen[k] < 0) {
+          plan_status_[k] = kFrameSubjectAbsent;
+        } else {
+          const face::FaceBox& b = faces[k][chosen[k]];
+          plan_status_[k] = b.width < o_.min_face_size ? kFrameFaceTooSmall : kFrameFound;
+          const float values[5] = {b.x, b.y, b.width, b.height, b.score};
+          std::copy(values, values + 5, plan_box_.begin() + k * 5);
+        }
+      }
+      if (!f.Exists("/frames/box")) {
+        f.WriteMatrix("/frames/box", Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, 5, Eigen::RowMajor>>(
+                                         plan_box_.data(), n_, 5));
+        f.SetAttribute("/frames/box", "columns", std::string("x, y, width, height, score of the subject's face (source pixels; zeros: none)"));
+      }
+      io::DoneMask done(&f, n_, "/progress/done");
+      pending_landmarks_ = done.Pending();
+    });
+    comm_.Broadcast(&plan_status_);
+    comm_.Broadcast(&plan_box_);
+  }
+
+  // Pass 3: landmarks and the aligned crop of the subject's face in frame k.
+  std::vector<uint8_t> Landmark(int64_t k, int thread) {
     ByteWriter w;
-    int32_t status = plan_status[k];
+    int32_t status = plan_status_[k];
     if (status != kFrameFound) {
       w.Put(status);
       return std::move(w.bytes());
     }
-    face::DecodedFrame frame = sources[thread]->Read(selected[k]);
+    face::DecodedFrame frame = sources_[thread]->Read(selected_[k]);
     if (!frame.ok) {
       w.Put<int32_t>(kFrameUnreadable);
       return std::move(w.bytes());
     }
     const double s = frame.source_scale;
-    const float* b = &plan_box[k * 5];
+    const float* b = &plan_box_[k * 5];
     const face::FaceBox box{static_cast<float>(b[0] / s), static_cast<float>(b[1] / s),
                             static_cast<float>(b[2] / s), static_cast<float>(b[3] / s), b[4]};
-    const face::Landmarks landmarks = analyzers[thread]->FitLandmarks(frame.image, box);
+    const face::Landmarks landmarks = analyzers_[thread]->FitLandmarks(frame.image, box);
+    const face::CropOptions crop_options{o_.crop_size, o_.crop_padding, o_.crop_raise};
     const face::AlignedCrop crop = face::AlignFace(frame.image, landmarks, crop_options);
     // Landmarks and the crop transform in source pixels.
     const face::Landmarks source_landmarks = landmarks * static_cast<float>(s);
@@ -405,10 +430,12 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
     w.PutArray(transform, 6);
     w.PutVector(crop.image.data);
     return std::move(w.bytes());
-  };
-  auto commit_landmarks = [&](const std::vector<int64_t>& frames,
-                              const std::vector<std::vector<uint8_t>>& results) {
-    io::H5File& f = output.file;
+  }
+
+  void CommitLandmarks(const std::vector<int64_t>& frames,
+                       const std::vector<std::vector<uint8_t>>& results) {
+    io::H5File& f = output_.file;
+    const int S = o_.crop_size;
     ForEachRun(frames, [&](int64_t first, int64_t count, size_t begin) {
       std::vector<int32_t> status(count);
       std::vector<uint8_t> found(count, 0);
@@ -435,56 +462,76 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
       f.WriteFrames<float>("/frames/crop_transform", first, count, tf.data());
       f.WriteFrames<uint8_t>("/frames/crop", first, count, crops.data());
     });
-    io::DoneMask mask(&f, n, "/progress/done");
+    io::DoneMask mask(&f, n_, "/progress/done");
     mask.MarkDone(frames);
-  };
-  RunFrameLoop(comm, pending_landmarks, n, loop, landmark, commit_landmarks);
+  }
 
-  // Summary, then the final name.
-  IngestSummary summary;
-  dist::CoordinateExceptions(comm, [&] {
-    if (!comm.IsMainRank()) return;
-    io::H5File& f = output.file;
-    output.file.Flush();
-    const std::vector<int32_t> status = f.ReadVector<int32_t>("/frames/status", n);
-    const std::vector<int32_t> flags = f.ReadVector<int32_t>("/frames/input_flags", n);
-    summary.frames = n;
-    for (int64_t k = 0; k < n; ++k) {
-      summary.found += status[k] == kFrameFound;
-      summary.no_face += status[k] == kFrameNoFace;
-      summary.face_too_small += status[k] == kFrameFaceTooSmall;
-      summary.unreadable += status[k] == kFrameUnreadable;
-      summary.subject_absent += status[k] == kFrameSubjectAbsent;
-      summary.from_grayscale += (flags[k] & face::kInputFromGrayscale) != 0;
-      summary.from_16bit += (flags[k] & face::kInputFrom16Bit) != 0;
-      summary.downscaled += (flags[k] & face::kInputDownscaled) != 0;
+  // The summary in the file's attributes, then the final name (with a face at all).
+  IngestSummary Finish(double seconds) {
+    IngestSummary summary;
+    dist::CoordinateExceptions(comm_, [&] {
+      if (!comm_.IsMainRank()) return;
+      io::H5File& f = output_.file;
+      f.Flush();
+      summary = SummaryOf(f.ReadVector<int32_t>("/frames/status", n_),
+                          f.ReadVector<int32_t>("/frames/input_flags", n_));
+      for (const auto& [name, value] :
+           {std::pair<const char*, int64_t>{"num_frames", summary.frames}, {"num_found", summary.found},
+            {"num_no_face", summary.no_face}, {"num_face_too_small", summary.face_too_small},
+            {"num_unreadable", summary.unreadable}, {"num_subject_absent", summary.subject_absent},
+            {"num_from_grayscale", summary.from_grayscale}, {"num_from_16bit", summary.from_16bit},
+            {"num_downscaled", summary.downscaled}}) {
+        f.SetAttribute("/frames", name, value);
+      }
+      // Without a face the output is no stage's input: it stays under its .partial name.
+      if (summary.found > 0) f.Commit();
+    });
+    summary.seconds = seconds;
+    if (comm_.IsMainRank()) {
+      FC_INFO("ingest: {} -> {}", input_, o_.out);
+      FC_INFO("ingest summary: {}", summary.Line());
+      FC_INFO("ingest: {:.1f} s, {:.1f} frames/s on {} rank(s) x {} thread(s)", summary.seconds,
+              n_ / std::max(1e-9, summary.seconds), comm_.size(), threads_);
     }
-    for (const auto& [name, value] :
-         {std::pair<const char*, int64_t>{"num_frames", summary.frames}, {"num_found", summary.found},
-          {"num_no_face", summary.no_face}, {"num_face_too_small", summary.face_too_small},
-          {"num_unreadable", summary.unreadable}, {"num_subject_absent", summary.subject_absent},
-          {"num_from_grayscale", summary.from_grayscale}, {"num_from_16bit", summary.from_16bit},
-          {"num_downscaled", summary.downscaled}}) {
-      f.SetAttribute("/frames", name, value);
+    int64_t found = summary.found;
+    comm_.Broadcast(&found, sizeof(found));
+    if (found == 0) {
+      throw FileIOError(input_ + ": no face found in any of the " + std::to_string(n_) +
+                        " frames (the per-frame accounting is in " + io::H5File::PartialPath(o_.out) +
+                        ", /frames/status; nothing was written to " + o_.out + ")");
     }
-    // Without a face the output is no stage's input: it stays under its .partial name.
-    if (summary.found > 0) f.Commit();
-  });
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (comm.IsMainRank()) {
-    FC_INFO("ingest: {} -> {}", input, o.out);
-    FC_INFO("ingest summary: {}", summary.Line());
-    FC_INFO("ingest: {:.1f} s, {:.1f} frames/s on {} rank(s) x {} thread(s)", summary.seconds,
-            n / std::max(1e-9, summary.seconds), comm.size(), threads);
+    return summary;
   }
-  int64_t found = summary.found;
-  comm.Broadcast(&found, sizeof(found));
-  if (found == 0) {
-    throw FileIOError(input + ": no face found in any of the " + std::to_string(n) +
-                      " frames (the per-frame accounting is in " + io::H5File::PartialPath(o.out) +
-                      ", /frames/status; nothing was written to " + o.out + ")");
-  }
-  return summary;
+
+  const IngestOptions& o_;
+  const StageContext& ctx_;
+  const io::Config& resolved_;
+  const dist::Comm& comm_;
+  const int threads_;
+  const std::string input_;
+  std::vector<std::unique_ptr<face::FrameSource>> sources_;
+  std::vector<std::unique_ptr<face::FaceAnalyzer>> analyzers_;
+  std::vector<int64_t> selected_;
+  int64_t n_ = 0;
+  ResumableOutput output_;  // rank 0
+  std::vector<int64_t> pending_detect_, pending_landmarks_;
+  int64_t unreadable_logged_ = 0;
+  std::vector<int32_t> plan_status_;  // each frame's status after the subject pass
+  std::vector<float> plan_box_;       // [n, 5] the subject's box (source pixels)
+};
+
+}  // namespace
+
+IngestSummary ReadIngestSummary(const std::string& path) {
+  io::H5File f = io::H5File::OpenRead(path);
+  const std::vector<int32_t> status = f.ReadVector<int32_t>("/frames/status");
+  return SummaryOf(status, f.ReadVector<int32_t>("/frames/input_flags", static_cast<int64_t>(status.size())));
+}
+
+IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const io::Config& resolved) {
+  const auto start = std::chrono::steady_clock::now();
+  IngestRun run(o, ctx, resolved);
+  return run.Run(start);
 }
 
 namespace {
