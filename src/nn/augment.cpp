@@ -1,10 +1,8 @@
 #include "nn/augment.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 namespace facecap::nn {
@@ -20,20 +18,10 @@ bool AugmentOptions::Check(std::string* why) const {
     *why = "random_background must be in [0, 1]";
     return false;
   }
-  if (!(randomize_a >= 0 && randomize_a <= 1)) { *why = "randomize_a must be in [0, 1]"; return false; }
-  if (!(paired_appearance >= 0 && paired_appearance <= 1)) {
-    *why = "paired_appearance must be in [0, 1]";
-    return false;
-  }
   return true;
 }
 
 namespace {
-
-// An RGB pixel as 0xRRGGBB (the key of a segmentation palette).
-inline uint32_t PackPixel(const uint8_t* rgb) {
-  return (uint32_t{rgb[0]} << 16) | (uint32_t{rgb[1]} << 8) | rgb[2];
-}
 
 // Bilinear sample of channel-interleaved uint8 RGB at pixel coordinates (x, y), edges clamped.
 inline void Sample(const uint8_t* image, int n, float x, float y, float* rgb) {
@@ -100,54 +88,18 @@ std::vector<int> MirrorRegions(const std::vector<std::string>& names) {
   return mirror;
 }
 
-SideSwap SideSwapOf(const std::vector<std::string>& names, const std::vector<uint32_t>& colors) {
-  SideSwap sides;
-  const std::vector<int> mirror = MirrorRegions(names);
-  for (size_t i = 0; i < names.size() && i < colors.size(); ++i) {
-    const size_t j = static_cast<size_t>(mirror[i]);
-    if (names[i].rfind("left_", 0) == 0 && j != i && j < colors.size()) {
-      sides.pairs.emplace_back(colors[i], colors[j]);
-    }
-  }
-  return sides;
-}
-
-void SwapSides(const uint8_t* image, int size, const SideSwap& sides, uint8_t* out) {
-  const size_t pixels = static_cast<size_t>(size) * size;
-  for (size_t p = 0; p < pixels; ++p) {
-    const uint32_t packed = PackPixel(image + 3 * p);
-    uint32_t to = packed;
-    for (const auto& [l, r] : sides.pairs) {
-      if (packed == l) to = r;
-      if (packed == r) to = l;
-    }
-    out[3 * p] = static_cast<uint8_t>(to >> 16);
-    out[3 * p + 1] = static_cast<uint8_t>(to >> 8);
-    out[3 * p + 2] = static_cast<uint8_t>(to);
-  }
-}
-
 void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentOptions& o,
                  PairKind kind, Rng* rng, float* input, float* target,
-                 const uint8_t* input_image, const SideSwap* sides) {
+                 const uint8_t* input_image) {
   // The similarity transform, in normalized coordinates centred on the image: output point
   // p (in [-1, 1]^2) samples the source at s R p + t, mirrored in x when flipped.
   const float angle = static_cast<float>(rng->Uniform(-1, 1)) * o.rotate_deg * 3.14159265f / 180.f;
   const float s = 1.f + static_cast<float>(rng->Uniform(-1, 1)) * o.scale;
   const float tx = static_cast<float>(rng->Uniform(-1, 1)) * o.shift * 2.f;
   const float ty = static_cast<float>(rng->Uniform(-1, 1)) * o.shift * 2.f;
-  // A mirrored segmentation paints the left brow, eyelids and so on in the right ones' place,
-  // so segmentation pairs are mirrored only with their sides' colours swapped.
-  const bool mirrorable = kind == PairKind::kCamera ||
-                          (o.flip_segmentation && sides != nullptr && !sides->empty());
-  const bool flip = o.flip && rng->Uniform() < 0.5 && mirrorable;
-  std::vector<uint8_t> swapped;
-  if (flip && kind != PairKind::kCamera) {
-    swapped.resize(3 * static_cast<size_t>(source_size) * source_size);
-    SwapSides(image, source_size, *sides, swapped.data());
-    if (!input_image) input_image = swapped.data();
-    image = swapped.data();
-  }
+  // A mirrored segmentation would paint the left brow, eyelids and so on in the right ones'
+  // place, so only camera pairs are mirrored (the draw is made for every pair alike).
+  const bool flip = o.flip && rng->Uniform() < 0.5 && kind == PairKind::kCamera;
   if (!input_image) input_image = image;
   const float ca = std::cos(angle) * s, sa = std::sin(angle) * s;
   // The warp field: grid x grid random offsets (normalized units), zero on the border.
@@ -200,158 +152,6 @@ void AugmentPair(const uint8_t* image, int source_size, int size, const AugmentO
         };
         if (jitter_input) jitter(input + k + c);
         if (jitter_target) jitter(target + k + c);
-      }
-    }
-  }
-}
-
-void AugmentAppearance(float* image, int size, Rng* rng) {
-  auto uniform = [&](double lo, double hi) { return static_cast<float>(rng->Uniform(lo, hi)); };
-  const float sigma = rng->Uniform() < 0.5 ? uniform(0.0, 1.5) : 0.f;
-  const float ramp_x = uniform(-0.35, 0.35), ramp_y = uniform(-0.35, 0.35);
-  const float gamma = std::exp(uniform(std::log(0.7), std::log(1.45)));
-  const float gain[3] = {uniform(0.8, 1.2), uniform(0.8, 1.2), uniform(0.8, 1.2)};
-  const size_t n = static_cast<size_t>(size) * size;
-  if (sigma > 0.2f) {
-    // Separable Gaussian, edges clamped: rows into `tmp`, then columns back into the image.
-    const int radius = static_cast<int>(std::ceil(3.f * sigma));
-    std::vector<float> kernel(2 * radius + 1);
-    float sum = 0.f;
-    for (int i = -radius; i <= radius; ++i) sum += kernel[i + radius] = std::exp(-0.5f * i * i / (sigma * sigma));
-    for (float& k : kernel) k /= sum;
-    std::vector<float> tmp(3 * n);
-    for (int pass = 0; pass < 2; ++pass) {
-      const float* from = pass == 0 ? image : tmp.data();
-      float* to = pass == 0 ? tmp.data() : image;
-      for (int y = 0; y < size; ++y) {
-        for (int x = 0; x < size; ++x) {
-          float acc[3] = {0.f, 0.f, 0.f};
-          for (int i = -radius; i <= radius; ++i) {
-            const int sx = pass == 0 ? std::clamp(x + i, 0, size - 1) : x;
-            const int sy = pass == 1 ? std::clamp(y + i, 0, size - 1) : y;
-            const float* p = from + (static_cast<size_t>(sy) * size + sx) * 3;
-            for (int c = 0; c < 3; ++c) acc[c] += kernel[i + radius] * p[c];
-          }
-          std::copy(acc, acc + 3, to + (static_cast<size_t>(y) * size + x) * 3);
-        }
-      }
-    }
-  }
-  for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) {
-      const float light = 1.f + ramp_x * (2.f * (x + 0.5f) / size - 1.f) + ramp_y * (2.f * (y + 0.5f) / size - 1.f);
-      float* p = image + (static_cast<size_t>(y) * size + x) * 3;
-      for (int c = 0; c < 3; ++c) p[c] = std::clamp(std::pow(p[c], gamma) * light * gain[c], 0.f, 1.f);
-    }
-  }
-}
-
-RegionKind RegionKindOf(const std::string& n) {
-  auto has = [&](const char* part) { return n.find(part) != std::string::npos; };
-  if (has("lip")) return RegionKind::kLips;
-  if (has("brow")) return RegionKind::kBrow;
-  if (has("hair")) return RegionKind::kHair;
-  if (has("sclera")) return RegionKind::kSclera;
-  if (has("iris")) return RegionKind::kIris;
-  if (has("pupil")) return RegionKind::kPupil;
-  if (has("mouth")) return RegionKind::kMouth;
-  return RegionKind::kSkin;  // skin, nose, neck, eyelids, cheeks, ...
-}
-
-namespace {
-
-using Rgb = std::array<float, 3>;
-
-Rgb Mix(const Rgb& a, const Rgb& b, float t) {
-  return {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
-}
-
-Rgb Scaled(const Rgb& c, float r, float g, float b) { return {c[0] * r, c[1] * g, c[2] * b}; }
-
-Rgb Unpack(uint32_t c) {
-  return {((c >> 16) & 255) / 255.f, ((c >> 8) & 255) / 255.f, (c & 255) / 255.f};
-}
-
-}  // namespace
-
-void RepaintSegmentation(const uint8_t* image, int size, const SegmentationPalette& palette,
-                         Rng* rng, uint8_t* out) {
-  auto uniform = [&](double lo, double hi) { return static_cast<float>(rng->Uniform(lo, hi)); };
-  // The person: a skin tone between dark and light, hair and brows, eyes.
-  const Rgb skin = Mix({0.33f, 0.21f, 0.15f}, {0.96f, 0.80f, 0.70f}, uniform(0, 1));
-  const Rgb hair = Mix({0.04f, 0.03f, 0.02f}, {0.55f, 0.40f, 0.25f}, uniform(0, 1));
-  const Rgb iris = Mix({0.20f, 0.12f, 0.06f}, {0.30f, 0.45f, 0.60f}, uniform(0, 1));
-  std::vector<Rgb> albedo(palette.colors.size());
-  for (size_t r = 0; r < albedo.size(); ++r) {
-    Rgb c;
-    switch (palette.kinds[r]) {
-      case RegionKind::kSkin:
-        c = Scaled(skin, uniform(0.9, 1.08), uniform(0.9, 1.06), uniform(0.9, 1.06));
-        break;
-      case RegionKind::kLips:
-        c = Scaled(skin, uniform(0.8, 0.95), uniform(0.45, 0.6), uniform(0.5, 0.65));
-        break;
-      case RegionKind::kBrow: c = Mix(hair, skin, uniform(0.0, 0.5)); break;
-      case RegionKind::kHair: c = hair; break;
-      case RegionKind::kSclera: c = Mix({0.70f, 0.66f, 0.62f}, {0.95f, 0.93f, 0.90f}, uniform(0, 1)); break;
-      case RegionKind::kIris: c = iris; break;
-      case RegionKind::kPupil: c = {0.03f, 0.03f, 0.03f}; break;
-      case RegionKind::kMouth: c = Scaled(skin, uniform(0.25, 0.45), uniform(0.1, 0.2), uniform(0.1, 0.2)); break;
-    }
-    albedo[r] = c;
-  }
-  // Background: a colour or a vertical or horizontal gradient between two colours.
-  const Rgb back0 = {uniform(0, 1), uniform(0, 1), uniform(0, 1)};
-  const Rgb back1 = rng->Uniform() < 0.5 ? back0 : Rgb{uniform(0, 1), uniform(0, 1), uniform(0, 1)};
-  const bool vertical = rng->Uniform() < 0.5;
-  // Shading: ambient plus a directional ramp and one soft blob of light or shadow.
-  const float ambient = uniform(0.55, 0.85), ramp_x = uniform(-0.35, 0.35), ramp_y = uniform(-0.25, 0.25);
-  const float blob_x = uniform(0.2, 0.8), blob_y = uniform(0.2, 0.8), blob_r = uniform(0.15, 0.45);
-  const float blob_gain = uniform(-0.25, 0.35);
-  const float noise = uniform(0.0, 0.04);
-  // Palette lookup by packed colour; colours not in the palette (resampled borders) take
-  // the nearest entry.
-  std::unordered_map<uint32_t, int> index;
-  for (size_t r = 0; r < palette.colors.size(); ++r) index[palette.colors[r]] = static_cast<int>(r);
-  index[palette.background] = -1;
-  auto region_of = [&](uint32_t c) {
-    auto it = index.find(c);
-    if (it != index.end()) return it->second;
-    const Rgb v = Unpack(c);
-    float best = 1e9f;
-    int best_r = -1;
-    auto consider = [&](uint32_t q, int r) {
-      const Rgb u = Unpack(q);
-      const float d = (u[0] - v[0]) * (u[0] - v[0]) + (u[1] - v[1]) * (u[1] - v[1]) +
-                      (u[2] - v[2]) * (u[2] - v[2]);
-      if (d < best) {
-        best = d;
-        best_r = r;
-      }
-    };
-    consider(palette.background, -1);
-    for (size_t r = 0; r < palette.colors.size(); ++r) consider(palette.colors[r], static_cast<int>(r));
-    index[c] = best_r;
-    return best_r;
-  };
-  for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) {
-      const size_t k = (static_cast<size_t>(y) * size + x) * 3;
-      const uint32_t packed = PackPixel(image + k);
-      const int r = region_of(packed);
-      const float u = (x + 0.5f) / size, v = (y + 0.5f) / size;
-      Rgb c;
-      if (r < 0) {
-        c = Mix(back0, back1, vertical ? v : u);
-      } else {
-        const float dx = u - blob_x, dy = v - blob_y;
-        const float shade = ambient + ramp_x * (u - 0.5f) + ramp_y * (v - 0.5f) +
-                            blob_gain * std::exp(-(dx * dx + dy * dy) / (blob_r * blob_r));
-        c = Scaled(albedo[r], shade, shade, shade);
-      }
-      for (int ch = 0; ch < 3; ++ch) {
-        const float value = c[ch] + noise * static_cast<float>(rng->Normal());
-        out[k + ch] = static_cast<uint8_t>(std::clamp(std::lround(255.f * value), 0L, 255L));
       }
     }
   }

@@ -46,6 +46,8 @@ namespace {
 // named: wild clips (synth clip), ingested video (ingest), synthetic samples (synth samples).
 const char* const kImageDatasets[] = {"/frames/image", "/frames/crop", "/samples/segmentation"};
 
+constexpr int kPreviewRows = 4;  // image pairs in the preview grid
+
 // [deepfake.train]
 // OUT without its .h5, followed by suffix.
 std::string WithSuffix(const std::string& path, const std::string& suffix) {
@@ -56,7 +58,6 @@ std::string WithSuffix(const std::string& path, const std::string& suffix) {
 
 struct DeepfakeTrainOptions {
   std::string a = "samples.h5";                  // domain A: synthetic segmentation renders
-  std::string a_dataset = "/samples/segmentation";  // image dataset of A [N, S, S, 3] uint8
   std::string b = "frames.h5";                   // domain B: real frames (ingest) or a wild clip
   std::string b_dataset = "";                    // image dataset of B ("": first found of
                                                  // /frames/image, /frames/crop, /samples/segmentation)
@@ -67,14 +68,11 @@ struct DeepfakeTrainOptions {
   bool palette_head = true;                      // D_A chooses among A's region colours
   std::string out = "deepfake.h5";               // model file
   int steps = 4500;                              // training steps (global batches)
-  double decay_fraction = 0;                     // last share of the steps with falling rates
   double average_decay = 0.999;                  // moving average of the weights (0: none)
   int batch = 8;                                 // global batch: images of A and of B per step
   int seed = 1;                                  // initial weights and batch sampling
   int checkpoint_every = 200;                    // steps between checkpoints (0: only at the end)
   int preview_every = 200;                       // steps between preview grids (0: only at the end)
-  std::string preview = "";                      // preview PNG ("": OUT with _preview.png)
-  int preview_count = 4;                         // rows of the preview grid
   std::string device = "cpu";                    // cpu or cuda
   int threads = 0;                               // torch threads per rank (0: cores / ranks)
   double progress_seconds = 10;                  // interval of the progress lines
@@ -98,10 +96,13 @@ struct DeepfakeTrainOptions {
     augment.random_background = 0.5f;
   }
 
+  // The options, by concern: data, schedule and checkpoints, network, losses, augmentation.
+  // The rest of the recipe is fixed (nn::DeepfakeLossOptions and nn::AugmentOptions
+  // defaults): L1 + DSSIM reconstruction, adversarial weights 0.02, Adam (0.5, 0.999) with
+  // discriminator rate 2e-4, the warp, similarity, flip and colour jitter of domain B.
   template <class V>
   void Visit(V&& v) {
-    v("a", a, "domain A file: synthetic segmentation renders (synth samples)");
-    v("a_dataset", a_dataset, "image dataset of A, [N, S, S, 3] uint8");
+    v("a", a, "domain A file: synthetic segmentation renders (synth samples, /samples/segmentation)");
     v("b", b, "domain B file: real frames (ingest) or a wild clip (synth clip)");
     v("b_dataset", b_dataset,
       "image dataset of B (empty: the first of /frames/image, /frames/crop, /samples/segmentation)");
@@ -114,41 +115,63 @@ struct DeepfakeTrainOptions {
       "setting)");
     v("paired_fraction", paired_fraction,
       "share of the domain-A examples drawn from the paired clips");
-    v("palette_head", palette_head,
-      "D_A gives per pixel logits over domain A's region colours (its /regions and the black "
-      "background) and shows their softmax-weighted colour; translations take the most likely "
-      "region's colour (sets palette_colors; false: an RGB head)");
-    v("out", out, "model file (HDF5); OUT.checkpoint holds the checkpoint while training");
+
+    v("out", out, "model file (HDF5); OUT.checkpoint holds the checkpoint while training, "
+                   "OUT with _preview.png the preview grid");
     v("steps", steps, "training steps; a finished model is trained further when this grows");
-    v("decay_fraction", decay_fraction,
-      "share of the steps at the end over which both learning rates fall linearly towards 0 "
-      "(0: constant rates; a model trained further decays again before its new end)");
+    v("batch", batch, "global batch (images of A and of B per step), shared among the ranks");
+    v("seed", seed, "seed of the initial weights and of the batch sampling");
     v("average_decay", average_decay,
       "decay of an exponential moving average of the weights, kept beside them in the model "
       "file (/averaged_weights), which infer uses by default (0: none; e.g. 0.999)");
-    v("batch", batch, "global batch (images of A and of B per step), shared among the ranks");
-    v("seed", seed, "seed of the initial weights and of the batch sampling");
     v("checkpoint_every", checkpoint_every, "steps between checkpoints (0: only at the end)");
     v("preview_every", preview_every, "steps between preview grids (0: only at the end)");
-    v("preview", preview, "preview grid PNG (empty: OUT with _preview.png)");
-    v("preview_count", preview_count, "rows of the preview grid");
+    v("progress_seconds", progress_seconds, "seconds between progress lines");
     v("device", device, "cpu, or cuda when libtorch has CUDA");
     v("threads", threads, "torch threads per rank (0: the cores divided among the node's ranks)");
-    v("progress_seconds", progress_seconds, "seconds between progress lines");
-    network.Visit(v);
-    loss.Visit(v);
-    augment.Visit(v);
+
+    v("size", network.size, "image width and height in pixels (a power of two, 16 or more)");
+    v("palette_head", palette_head,
+      "D_A gives per pixel logits over domain A's region colours (its /regions and the black "
+      "background) and shows their softmax-weighted colour; translations take the most likely "
+      "region's colour (false: an RGB head)");
+    v("skips", network.skips,
+      "finest encoder levels whose features also feed the decoders (U-Net skips; 0: none)");
+    v("input_skip_width", network.input_skip_width,
+      "channels of an encoder level at the input resolution that feeds the decoders' last "
+      "convolution (0: none)");
+    v("encoder_width", network.encoder_width, "channels of the encoder's first level, doubled per level");
+    v("latent_channels", network.latent_channels, "channels of the latent code E(I) (8x8)");
+    v("decoder_width", network.decoder_width, "channels of the decoders' last level, doubled per level up");
+    v("decoder_b_width", network.decoder_b_width,
+      "channels of D_B's last level, doubled per level up (0: decoder_width)");
+    v("discriminator_width", network.discriminator_width, "channels of the discriminators");
+
+    v("learning_rate", loss.learning_rate, "Adam learning rate of the encoder and decoders");
+    v("gradient_clip", loss.gradient_clip,
+      "cap on each step's gradient norm, as a multiple of its running RMS in Adam's second "
+      "moment (0: no cap)");
+    v("palette_weight", loss.palette_weight,
+      "weight of the region cross-entropy of D_A's output over the segmentation palette, rare "
+      "regions weighted up (0: none)");
+    v("dice_weight", loss.dice_weight,
+      "weight of a per-image soft Dice term on D_A's region probabilities, every region "
+      "counted alike (0: none; needs the palette)");
+    v("region_l1_weight", loss.region_l1_weight,
+      "weight of an L1 term on D_A's output with each pixel weighted by its target region's "
+      "rarity, as the palette terms' regions (0: none)");
+
+    v("random_background", augment.random_background,
+      "probability that a paired camera frame's background is replaced by a random procedural "
+      "one (0: never)");
   }
   void DerivedOutputs(std::vector<NamedPath>* outputs) const {
     outputs->push_back({"out + .checkpoint", out + ".checkpoint", OutputKind::kText});
-    if (preview.empty()) {
-      outputs->push_back({"preview (out with _preview.png)", WithSuffix(out, "_preview.png"),
-                          OutputKind::kImage});
-    }
+    outputs->push_back({"preview (out with _preview.png)", WithSuffix(out, "_preview.png"),
+                        OutputKind::kImage});
   }
   bool Check(std::string* why) const {
     if (steps < 0) { *why = "steps must be >= 0"; return false; }
-    if (!(decay_fraction >= 0 && decay_fraction <= 1)) { *why = "decay_fraction must be in [0, 1]"; return false; }
     if (!(average_decay >= 0 && average_decay < 1)) { *why = "average_decay must be in [0, 1)"; return false; }
     if (b_holdout_every < 0 || b_holdout_every == 1) { *why = "b_holdout_every must be 0 or >= 2"; return false; }
     if (!(paired_fraction >= 0 && paired_fraction <= 1)) { *why = "paired_fraction must be in [0, 1]"; return false; }
@@ -157,7 +180,6 @@ struct DeepfakeTrainOptions {
       *why = "checkpoint_every and preview_every must be >= 0";
       return false;
     }
-    if (preview_count < 1 || preview_count > 64) { *why = "preview_count must be in [1, 64]"; return false; }
     if (device != "cpu" && device != "cuda") { *why = "device must be cpu or cuda"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
     if (!(progress_seconds > 0)) { *why = "progress_seconds must be positive"; return false; }
@@ -392,22 +414,11 @@ DeepfakeTrainOptions IdentityOptions(const DeepfakeTrainOptions& o) {
   id.steps = defaults.steps;
   id.checkpoint_every = defaults.checkpoint_every;
   id.preview_every = defaults.preview_every;
-  id.preview = defaults.preview;
-  id.preview_count = defaults.preview_count;
   id.device = defaults.device;
   id.threads = defaults.threads;
   id.progress_seconds = defaults.progress_seconds;
   id.out = defaults.out;
   return id;
-}
-
-// The learning rates' factor at `step` (0-based) of `steps`: 1, then over the last
-// decay_fraction of the steps falling linearly to 1 / (decay steps) at the last step.
-double LearningRateScale(int64_t step, int64_t steps, double decay_fraction) {
-  const int64_t decay = static_cast<int64_t>(std::llround(decay_fraction * steps));
-  const int64_t left = steps - step;  // steps left, this one included
-  if (decay <= 0 || left > decay) return 1.0;
-  return static_cast<double>(std::max<int64_t>(left, 1)) / static_cast<double>(decay);
 }
 
 struct Regions {
@@ -523,7 +534,7 @@ struct TrainingData {
 
 TrainingData ReadTrainingData(const DeepfakeTrainOptions& o, const dist::Comm& comm) {
   TrainingData d;
-  d.a = ReadShard(o.a, o.a_dataset, comm);
+  d.a = ReadShard(o.a, "/samples/segmentation", comm);
   d.b = ReadShard(o.b, o.b_dataset, comm, o.b_holdout_every);
   // Each rank holds its block of every paired clip, so that every person is seen by every rank.
   for (const std::string& path : o.paired) {
@@ -536,10 +547,6 @@ TrainingData ReadTrainingData(const DeepfakeTrainOptions& o, const dist::Comm& c
     Append(target, path, &d.paired_target);
   }
   d.regions = ReadRegions(io::H5File::OpenRead(o.a));
-  if (o.augment.randomize_a > 0 && d.regions.names.empty()) {
-    throw FileIOError(o.a + ": randomize_a needs the region names and colours (/regions) of "
-                      "the segmentation renders");
-  }
   nn::DeepfakeNetworkOptions network = o.network;
   if (o.palette_head) {
     if (d.regions.names.empty()) {
@@ -569,10 +576,10 @@ class DeepfakeTraining : public train::Network {
       v->resize(batch_.count * image_floats_);
     }
     preview_rows_ = static_cast<int>(
-        std::min<int64_t>(o.preview_count, std::min(d_.a.count(), d_.b.count())));
+        std::min<int64_t>(kPreviewRows, std::min(d_.a.count(), d_.b.count())));
     preview_a_ = ResizedImages(d_.a, 0, preview_rows_, size_);
     preview_b_ = ResizedImages(d_.b, 0, preview_rows_, size_);
-    SetUpPalette();
+    SetUpRegionWeights();
     SetUpBackgrounds();
   }
 
@@ -585,7 +592,7 @@ class DeepfakeTraining : public train::Network {
   float* gradients() override { return trainer_.gradients(); }
   int64_t num_gradients() const override { return trainer_.num_gradients(); }
   void Apply(int64_t step) override {
-    trainer_.OptimizerStep(LearningRateScale(step, o_.steps, o_.decay_fraction));
+    trainer_.OptimizerStep();
     if (!averaged_.empty()) {
       model_.ParametersToHost();
       nn::UpdateMovingAverage(model_.parameters(), model_.num_parameters(), step + 1,
@@ -651,31 +658,18 @@ class DeepfakeTraining : public train::Network {
   // The preview grid of paper 000 Fig. 6 (rank 0).
   void WritePreview() {
     if (!comm_.IsMainRank()) return;
-    const std::string path = o_.preview.empty() ? WithSuffix(o_.out, "_preview.png") : o_.preview;
-    io::WriteImage(path, trainer_.PreviewGrid(preview_a_.data(), preview_b_.data(), preview_rows_));
+    io::WriteImage(WithSuffix(o_.out, "_preview.png"), trainer_.PreviewGrid(preview_a_.data(), preview_b_.data(), preview_rows_));
   }
 
  private:
-  // A's flat region colours (for augment.randomize_a), the sides a mirrored pair swaps, and
-  // the palette terms' class weights.
-  void SetUpPalette() {
-    auto pack = [](float r, float g, float b) {
-      auto q = [](float v) { return static_cast<uint32_t>(std::clamp(std::lround(255.f * v), 0L, 255L)); };
-      return (q(r) << 16) | (q(g) << 8) | q(b);
-    };
-    const Regions& regions = d_.regions;
-    for (size_t r = 0; r < regions.names.size(); ++r) {
-      palette_.colors.push_back(pack(regions.colors(r, 0), regions.colors(r, 1), regions.colors(r, 2)));
-      palette_.kinds.push_back(nn::RegionKindOf(regions.names[r]));
-    }
-    sides_ = nn::SideSwapOf(regions.names, palette_.colors);
+  // The palette terms' class weights.
+  void SetUpRegionWeights() {
     if (o_.loss.palette_weight > 0 || o_.loss.region_l1_weight > 0 || o_.loss.dice_weight > 0) {
-      const PaletteWeights pw = RegionWeights(regions, {&d_.a, &d_.paired_target}, comm_);
+      const PaletteWeights pw = RegionWeights(d_.regions, {&d_.a, &d_.paired_target}, comm_);
       trainer_.SetPalette(pw.colors, pw.weights);
       region_weights_ = pw.weights;
       if (comm_.IsMainRank()) FC_INFO("deepfake train: region weights of the palette terms {}", pw.summary);
     }
-    repainted_.resize(3LL * d_.a.size * d_.a.size);
   }
 
   // Random backgrounds for the paired frames (augment.random_background): a bank of procedural
@@ -698,8 +692,8 @@ class DeepfakeTraining : public train::Network {
     composite_.resize(3LL * s * s);
   }
 
-  // Example i of this rank's batch: an A pair (a segmentation render, repainted or not, or a
-  // paired frame of another person with its segmentation) and a B pair.
+  // Example i of this rank's batch: an A pair (a segmentation render, or a paired frame of
+  // another person with its segmentation) and a B pair.
   void AddExample(int i, Rng* rng) {
     const int64_t ia = rng->UniformInt(d_.a.count()), ib = rng->UniformInt(d_.b.count());
     const uint8_t* input_a = nullptr;
@@ -718,17 +712,9 @@ class DeepfakeTraining : public train::Network {
                               d_.paired_image.size, composite_.data());
         input_a = composite_.data();
       }
-    } else if (o_.augment.randomize_a > 0 && rng->Uniform() < o_.augment.randomize_a) {
-      nn::RepaintSegmentation(d_.a.image(ia), d_.a.size, palette_, rng, repainted_.data());
-      input_a = repainted_.data();
     }
-    float* in_a = &batch_.input_a[i * image_floats_];
     nn::AugmentPair(target_a->image(index_a), target_a->size, size_, o_.augment, kind_a, rng,
-                    in_a, &batch_.target_a[i * image_floats_], input_a, &sides_);
-    if (kind_a == nn::PairKind::kPairedCamera && o_.augment.paired_appearance > 0 &&
-        rng->Uniform() < o_.augment.paired_appearance) {
-      nn::AugmentAppearance(in_a, size_, rng);
-    }
+                    &batch_.input_a[i * image_floats_], &batch_.target_a[i * image_floats_], input_a);
     nn::AugmentPair(d_.b.image(ib), d_.b.size, size_, o_.augment, nn::PairKind::kCamera, rng,
                     &batch_.input_b[i * image_floats_], &batch_.target_b[i * image_floats_]);
   }
@@ -746,9 +732,6 @@ class DeepfakeTraining : public train::Network {
   std::vector<uint8_t> preview_a_, preview_b_;
   std::vector<float> averaged_;         // rank 0: the moving average of the weights
   std::vector<float> region_weights_;   // the palette terms' class weights
-  nn::SegmentationPalette palette_;
-  nn::SideSwap sides_;
-  std::vector<uint8_t> repainted_;
   std::vector<Image8> background_bank_;
   std::vector<std::vector<uint8_t>> paired_masks_;
   std::vector<uint8_t> composite_;
@@ -1017,7 +1000,7 @@ void RegisterDeepfake(CLI::App* app, AppState* state) {
       "Train E, D_A, D_B with the discriminators G_image and G_latent on A (synthetic renders) and "
       "B (real frames), data-parallel across ranks with gradient allreduce; checkpoints, resumes, "
       "progress lines with each loss, preview grid",
-      PathKeys{{"a", "b", "paired"}, {{"out", OutputKind::kHdf5}, {"preview", OutputKind::kImage}}},
+      PathKeys{{"a", "b", "paired"}, {{"out", OutputKind::kHdf5}}},
       RunDeepfakeTrain);
   AddStage<DeepfakeInferOptions>(
       deepfake, state, "infer", "deepfake.infer", "deepfake infer",

@@ -53,7 +53,7 @@ class DeepfakeStage : public ::testing::Test {
   static std::string File(const std::string& name) { return dir_->File(name); }
   static std::string Train(const std::string& out, int steps, int encoder_width = 8) {
     return "deepfake train --a " + File("samples1.h5") + " --b " + File("b.h5") +
-           " --size 32 --latent-resolution 8 --latent-channels 8 --encoder-width " +
+           " --size 32 --latent-channels 8 --encoder-width " +
            std::to_string(encoder_width) +
            " --decoder-width 8 --discriminator-width 8 --batch 6 --checkpoint-every 4"
            " --preview-every 4 --progress-seconds 0.01 --steps " + std::to_string(steps) +
@@ -125,14 +125,13 @@ TEST_F(DeepfakeStage, EveryRankHoldsTheSameWeightsOnTwoAndThreeRanks) {
   EXPECT_NE(region_weights[0].find("background"), std::string::npos) << region_weights[0];
 }
 
-// (With the palette head, the Dice term, the input-resolution skip, random backgrounds, the
-// decay of the learning rates over the last half of the steps and the moving average of the
-// weights, so that these continue bitwise too.)
+// (With the palette head, the Dice term, the input-resolution skip, random backgrounds and
+// the moving average of the weights, so that these continue bitwise too.)
 TEST_F(DeepfakeStage, StoppedAndKilledRunsContinueToTheStraightResult) {
   const std::string straight = File("straight.h5"), stopped = File("stopped.h5"),
                     killed = File("killed.h5");
   const std::string extra = " --palette-weight 1 --palette-head --dice-weight 1 --input-skip-width 4 "
-                            "--paired " + File("b.h5") + " --random-background 0.5 --decay-fraction 0.5 "
+                            "--paired " + File("b.h5") + " --random-background 0.5 "
                             "--average-decay 0.9";
   auto Train = [&](const std::string& out, int steps) { return DeepfakeStage::Train(out, steps) + extra; };
   ASSERT_EQ(RunFacecap(Train(straight, 10), 2, kEnv).code, 0);
