@@ -769,140 +769,177 @@ void RunDeepfakeTrain(const StageFlags& flags, AppState* state) {
 
 // --------------------------------------------------------------------------------------------
 
-void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<DeepfakeInferOptions>(flags, &ctx, &resolved);
-  const dist::Comm& comm = ctx.comm;
-  const int threads = ThreadsPerRank(o.threads);
-  nn::SetTorchThreads(threads);
-
+// The model as infer uses it: the moving average of the weights, D_A's label averaging and
+// prior correction as the options and the model file allow.
+struct Translator {
   std::unique_ptr<nn::DeepfakeModel> model;
-  int averaged = 0;  // translating with the model file's moving average of the weights
-  int corrected = 0;  // labels with the prior correction
-  io::H5File frames_file;
-  std::string dataset;
-  int64_t num_frames = 0;
-  int frame_size = 0;
   Regions regions;
-  dist::CoordinateExceptions(comm, [&] {
-    io::H5File model_file = io::H5File::OpenRead(o.model);
-    model = std::make_unique<nn::DeepfakeModel>(nn::ReadNetworkOptions(model_file), 0, o.device);
-    nn::ReadWeights(model_file, model.get());
-    if (o.averaged && nn::ReadAveragedWeights(model_file, *model, model->parameters())) {
-      model->ParametersWritten();
-      averaged = 1;
-    }
-    regions = ReadRegions(model_file);
-    SetModelPalette(model.get(), regions, o.model);
-    if (o.flip_average && model->options().palette_colors > 0 && o.decoder == "A") {
-      model->SetFlipAverage(PaletteMirror(regions));
-    }
-    if (model->options().palette_colors > 0 && o.decoder == "A") {
-      model->SetShiftAverage(o.shift_average);
-      const bool has_weights = model_file.Exists("/training/region_weights");
-      if (o.prior_correction != 0 && !has_weights && comm.IsMainRank()) {
-        FC_WARN("deepfake infer: {} has no /training/region_weights (trained without the palette "
-                "terms, or before they were stored); prior_correction is not applied", o.model);
-      }
-      if (o.prior_correction != 0 && has_weights) {
-        const auto weights =
-            model_file.ReadVector<float>("/training/region_weights", model->options().palette_colors);
-        std::vector<float> bias(weights.size(), 0.f);
-        for (size_t k = 0; k < weights.size(); ++k) {
-          // A class absent from the targets (weight 0) keeps its own log-probability.
-          if (weights[k] > 0) bias[k] = static_cast<float>(-o.prior_correction * std::log(weights[k]));
-        }
-        model->SetLabelBias(bias);
-        corrected = 1;
-      }
-    }
-    frames_file = io::H5File::OpenRead(o.frames);
-    dataset = FindImageDataset(frames_file, o.dataset);
-    const io::Shape shape = frames_file.CheckShape(dataset, {-1, -1, -1, 3});
-    if (shape[1] != shape[2]) {
-      throw FileIOError(o.frames + ": " + dataset + " has shape " + io::ShapeToString(shape) +
-                        "; square images are expected");
-    }
-    num_frames = shape[0];
-    frame_size = static_cast<int>(shape[1]);
-  });
-  const int size = model->options().size;
-  const int64_t latent = model->options().LatentSize();
-  const auto decoder = o.decoder == "A" ? nn::DeepfakeModel::Decoder::kA : nn::DeepfakeModel::Decoder::kB;
+  bool averaged = false;   // translating with the model file's moving average of the weights
+  bool corrected = false;  // labels with the prior correction
+};
 
-  ResumableOutput output;
-  std::vector<int64_t> pending;
-  int up_to_date = 0;
-  dist::CoordinateExceptions(comm, [&] {
-    if (!comm.IsMainRank()) return;
-    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "deepfake infer", resolved));
-    if (output.up_to_date) {
-      up_to_date = 1;
-      return;
+Translator LoadTranslator(const DeepfakeInferOptions& o, const dist::Comm& comm) {
+  Translator t;
+  io::H5File model_file = io::H5File::OpenRead(o.model);
+  t.model = std::make_unique<nn::DeepfakeModel>(nn::ReadNetworkOptions(model_file), 0, o.device);
+  nn::DeepfakeModel* model = t.model.get();
+  nn::ReadWeights(model_file, model);
+  if (o.averaged && nn::ReadAveragedWeights(model_file, *model, model->parameters())) {
+    model->ParametersWritten();
+    t.averaged = true;
+  }
+  t.regions = ReadRegions(model_file);
+  SetModelPalette(model, t.regions, o.model);
+  if (model->options().palette_colors <= 0 || o.decoder != "A") return t;
+  if (o.flip_average) model->SetFlipAverage(PaletteMirror(t.regions));
+  model->SetShiftAverage(o.shift_average);
+  const bool has_weights = model_file.Exists("/training/region_weights");
+  if (o.prior_correction != 0 && !has_weights && comm.IsMainRank()) {
+    FC_WARN("deepfake infer: {} has no /training/region_weights (trained without the palette "
+            "terms, or before they were stored); prior_correction is not applied", o.model);
+  }
+  if (o.prior_correction != 0 && has_weights) {
+    const auto weights =
+        model_file.ReadVector<float>("/training/region_weights", model->options().palette_colors);
+    std::vector<float> bias(weights.size(), 0.f);
+    for (size_t k = 0; k < weights.size(); ++k) {
+      // A class absent from the targets (weight 0) keeps its own log-probability.
+      if (weights[k] > 0) bias[k] = static_cast<float>(-o.prior_correction * std::log(weights[k]));
     }
-    io::H5File& f = output.file;
-    f.CreateFrames<uint8_t>("/frames/translated", {size, size, 3}, num_frames, 16);
-    f.SetAttribute("/frames/translated", "meaning",
-                   std::string(o.decoder == "A" ? "D_A(E(I)): the frame in the synthetic (segmentation) style"
-                                                : "D_B(E(I))"));
-    f.SetAttribute("/frames/translated", "layout", std::string("frame, y, x, RGB"));
-    f.CreateFrames<float>("/frames/latent", {latent}, num_frames, 16);
-    f.SetAttribute("/frames/latent", "meaning", std::string("E(I), flattened [channels, y, x]"));
-    f.CreateFrames<float>("/frames/latent_of_translation", {latent}, num_frames, 16);
-    f.SetAttribute("/frames/latent_of_translation", "meaning",
-                   std::string("E(D(E(I))) of the stored 8-bit translation (paper 000 Sec. 9)"));
-    if (!output.resumed) {
-      WriteRegions(&f, regions);
-      // Ingest's per-frame face flags travel with the translations: the tracker skips the
-      // frames without a face.
-      if (dataset == "/frames/crop" && frames_file.Exists("/frames/found")) {
-        f.WriteVector<uint8_t>("/frames/found", frames_file.ReadVector<uint8_t>("/frames/found", num_frames));
-        f.SetAttribute("/frames/found", "meaning", std::string("1: ingest found the face, 0: no face"));
+    model->SetLabelBias(bias);
+    t.corrected = true;
+  }
+  return t;
+}
+
+// One deepfake infer run: the model and the frames opened on every rank, the output on rank 0,
+// the translations spread across ranks, then the region borders and the overlay (rank 0).
+class DeepfakeInference {
+ public:
+  DeepfakeInference(const DeepfakeInferOptions& o, const StageContext& ctx, const io::Config& resolved)
+      : o_(o), ctx_(ctx), resolved_(resolved), comm_(ctx.comm) {
+    dist::CoordinateExceptions(comm_, [&] {
+      t_ = LoadTranslator(o, comm_);
+      frames_file_ = io::H5File::OpenRead(o.frames);
+      dataset_ = FindImageDataset(frames_file_, o.dataset);
+      const io::Shape shape = frames_file_.CheckShape(dataset_, {-1, -1, -1, 3});
+      if (shape[1] != shape[2]) {
+        throw FileIOError(o.frames + ": " + dataset_ + " has shape " + io::ShapeToString(shape) +
+                          "; square images are expected");
       }
-      if (o.camera.empty()) {
-        CopyScaledCamera(frames_file, size, &f);
-      } else {
-        CopyScaledCamera(io::H5File::OpenRead(o.camera), size, &f);
-        if (!f.Exists("/camera/intrinsics")) throw FileIOError(o.camera + ": no /camera/intrinsics");
-      }
-    }
-    io::DoneMask mask(&f, num_frames);
-    pending = mask.Pending();
-    if (output.resumed) {
-      FC_INFO("deepfake infer: continuing {}: {} of {} frames already done",
-              io::H5File::PartialPath(o.out), mask.NumDone(), num_frames);
-    }
-  });
-  comm.Broadcast(&up_to_date, sizeof(up_to_date));
-  if (up_to_date) {
-    if (comm.IsMainRank()) FC_INFO("deepfake infer: {} is up to date", o.out);
-    return;
+      num_frames_ = shape[0];
+      frame_size_ = static_cast<int>(shape[1]);
+    });
+    size_ = t_.model->options().size;
+    latent_ = t_.model->options().LatentSize();
   }
 
-  FrameLoopOptions loop;
-  loop.what = "deepfake infer";
-  loop.batch = o.batch;
-  loop.threads = 1;  // torch parallelizes inside each frame
-  const int64_t one = 3LL * frame_size * frame_size;
-  auto compute = [&](int64_t frame, int) {
+  void Run() {
+    if (OpenOutput()) {
+      if (comm_.IsMainRank()) FC_INFO("deepfake infer: {} is up to date", o_.out);
+      return;
+    }
+    FrameLoopOptions loop;
+    loop.what = "deepfake infer";
+    loop.batch = o_.batch;
+    loop.threads = 1;  // torch parallelizes inside each frame
+    RunFrameLoop(
+        comm_, pending_, num_frames_, loop, [&](int64_t frame, int) { return Translate(frame); },
+        [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
+          Commit(frames, results);
+        });
+    // Region borders of every translation (cheap next to the network: rank 0 does them all, so
+    // the table is written once, in frame order, whatever the rank count or resumes).
+    dist::CoordinateExceptions(comm_, [&] {
+      if (!comm_.IsMainRank()) return;
+      if (o_.contours && t_.regions.names.empty()) {
+        FC_WARN("deepfake infer: {} holds no /regions; no contours", o_.model);
+      } else if (o_.contours) {
+        WriteContours();
+      }
+      output_.file.Commit();
+      const bool labels = t_.model->options().palette_colors > 0 && o_.decoder == "A";
+      FC_INFO("deepfake infer: {} frames -> {}{}{}{}{}", num_frames_, o_.out,
+              t_.averaged ? " (averaged weights)" : "", labels && o_.flip_average ? " (flip-averaged labels)" : "",
+              labels && o_.shift_average > 0 ? " (shift-averaged labels)" : "",
+              t_.corrected ? fmt::format(" (prior correction {})", o_.prior_correction) : std::string());
+    });
+  }
+
+ private:
+  // Rank 0 opens (or continues) the output; true on every rank when it is up to date.
+  bool OpenOutput() {
+    int up_to_date = 0;
+    dist::CoordinateExceptions(comm_, [&] {
+      if (!comm_.IsMainRank()) return;
+      output_ = OpenResumableOutput(o_.out, resolved_.ToToml(), MakeProvenance(ctx_, "deepfake infer", resolved_));
+      if (output_.up_to_date) {
+        up_to_date = 1;
+        return;
+      }
+      io::H5File& f = output_.file;
+      f.CreateFrames<uint8_t>("/frames/translated", {size_, size_, 3}, num_frames_, 16);
+      f.SetAttribute("/frames/translated", "meaning",
+                     std::string(o_.decoder == "A" ? "D_A(E(I)): the frame in the synthetic (segmentation) style"
+                                                   : "D_B(E(I))"));
+      f.SetAttribute("/frames/translated", "layout", std::string("frame, y, x, RGB"));
+      f.CreateFrames<float>("/frames/latent", {latent_}, num_frames_, 16);
+      f.SetAttribute("/frames/latent", "meaning", std::string("E(I), flattened [channels, y, x]"));
+      f.CreateFrames<float>("/frames/latent_of_translation", {latent_}, num_frames_, 16);
+      f.SetAttribute("/frames/latent_of_translation", "meaning",
+                     std::string("E(D(E(I))) of the stored 8-bit translation (paper 000 Sec. 9)"));
+      if (!output_.resumed) WriteFrameRecords(&f);
+      io::DoneMask mask(&f, num_frames_);
+      pending_ = mask.Pending();
+      if (output_.resumed) {
+        FC_INFO("deepfake infer: continuing {}: {} of {} frames already done",
+                io::H5File::PartialPath(o_.out), mask.NumDone(), num_frames_);
+      }
+    });
+    comm_.Broadcast(&up_to_date, sizeof(up_to_date));
+    return up_to_date != 0;
+  }
+
+  // What travels with the translations: the regions, ingest's face flags (the tracker skips
+  // the frames without a face) and the camera scaled to the translations.
+  void WriteFrameRecords(io::H5File* f) {
+    WriteRegions(f, t_.regions);
+    if (dataset_ == "/frames/crop" && frames_file_.Exists("/frames/found")) {
+      f->WriteVector<uint8_t>("/frames/found", frames_file_.ReadVector<uint8_t>("/frames/found", num_frames_));
+      f->SetAttribute("/frames/found", "meaning", std::string("1: ingest found the face, 0: no face"));
+    }
+    if (o_.camera.empty()) {
+      CopyScaledCamera(frames_file_, size_, f);
+    } else {
+      CopyScaledCamera(io::H5File::OpenRead(o_.camera), size_, f);
+      if (!f->Exists("/camera/intrinsics")) throw FileIOError(o_.camera + ": no /camera/intrinsics");
+    }
+  }
+
+  // Frame `frame` of the input at the network's size.
+  std::vector<uint8_t> InputImage(int64_t frame) {
     ImageShard image;
-    image.size = frame_size;
-    image.pixels.resize(one);
-    frames_file.ReadFrames<uint8_t>(dataset, frame, 1, image.pixels.data());
-    const std::vector<uint8_t> input = ResizedImages(image, 0, 1, size);
-    std::vector<uint8_t> translated(3LL * size * size);
-    std::vector<float> code(latent), code_of_translation(latent);
-    model->Translate(input.data(), 1, decoder, translated.data(), code.data(),
-                     code_of_translation.data());
+    image.size = frame_size_;
+    image.pixels.resize(3LL * frame_size_ * frame_size_);
+    frames_file_.ReadFrames<uint8_t>(dataset_, frame, 1, image.pixels.data());
+    return ResizedImages(image, 0, 1, size_);
+  }
+
+  std::vector<uint8_t> Translate(int64_t frame) {
+    const std::vector<uint8_t> input = InputImage(frame);
+    std::vector<uint8_t> translated(3LL * size_ * size_);
+    std::vector<float> code(latent_), code_of_translation(latent_);
+    const auto decoder = o_.decoder == "A" ? nn::DeepfakeModel::Decoder::kA : nn::DeepfakeModel::Decoder::kB;
+    t_.model->Translate(input.data(), 1, decoder, translated.data(), code.data(), code_of_translation.data());
     ByteWriter w;
     w.PutVector(translated);
     w.PutVector(code);
     w.PutVector(code_of_translation);
     return std::move(w.bytes());
-  };
-  auto commit = [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
-    io::H5File& f = output.file;
+  }
+
+  void Commit(const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
+    io::H5File& f = output_.file;
     for (size_t k = 0; k < frames.size(); ++k) {
       ByteReader r(results[k]);
       const auto translated = r.GetVector<uint8_t>();
@@ -912,81 +949,88 @@ void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
       f.WriteFrames<float>("/frames/latent", frames[k], 1, code.data());
       f.WriteFrames<float>("/frames/latent_of_translation", frames[k], 1, code2.data());
     }
-    io::DoneMask mask(&f, num_frames);
+    io::DoneMask mask(&f, num_frames_);
     mask.MarkDone(frames);
-  };
-  RunFrameLoop(comm, pending, num_frames, loop, compute, commit);
+  }
 
-  // Region borders of every translation (cheap next to the network: rank 0 does them all, so
-  // the table is written once, in frame order, whatever the rank count or resumes).
-  dist::CoordinateExceptions(comm, [&] {
-    if (!comm.IsMainRank()) return;
-    io::H5File& f = output.file;
-    if (o.contours && regions.names.empty()) {
-      FC_WARN("deepfake infer: {} holds no /regions; no contours", o.model);
-    } else if (o.contours) {
-      const contour::Palette palette = PaletteOf(regions);
-      contour::BorderOptions border_options;
-      border_options.min_points = o.contour_min_points;
-      std::vector<int32_t> table;  // frame, region, neighbor, closed, first point, point count
-      std::vector<float> points;
-      std::vector<uint8_t> overlay_rows;
-      const int overlay_frames = static_cast<int>(std::min<int64_t>(o.overlay_count, num_frames));
-      const int cell = size * o.overlay_scale;
-      Image8 overlay(3 * cell, std::max(1, overlay_frames) * cell, 3);
-      for (int64_t frame = 0; frame < num_frames; ++frame) {
-        Image8 translated(size, size, 3);
-        f.ReadFrames<uint8_t>("/frames/translated", frame, 1, translated.data.data());
-        const auto labels = contour::ClassifyPixels(translated, palette);
-        const auto borders = contour::ExtractBorders(labels, size, size, palette.num_labels(), border_options);
-        for (const auto& b : borders) {
-          table.insert(table.end(), {static_cast<int32_t>(frame), b.region, b.neighbor, b.closed ? 1 : 0,
-                                     static_cast<int32_t>(points.size() / 2),
-                                     static_cast<int32_t>(b.points.size())});
-          for (const auto& p : b.points) points.insert(points.end(), {p[0], p[1]});
-        }
-        if (frame < overlay_frames) {
-          ImageShard real;
-          real.size = frame_size;
-          real.pixels.resize(one);
-          frames_file.ReadFrames<uint8_t>(dataset, frame, 1, real.pixels.data());
-          Image8 real_image(size, size, 3);
-          real_image.data = ResizedImages(real, 0, 1, size);
-          // I_R, D_S(E(I_R)), and the borders of D_S(E(I_R)) on I_R (paper 000 Fig. 7).
-          const Image8 columns[3] = {contour::DrawBorders(real_image, {}, palette, o.overlay_scale),
-                                     contour::DrawBorders(translated, {}, palette, o.overlay_scale),
-                                     contour::DrawBorders(real_image, borders, palette, o.overlay_scale)};
-          for (int c = 0; c < 3; ++c) {
-            for (int y = 0; y < cell; ++y) {
-              std::memcpy(overlay.pixel(c * cell, static_cast<int>(frame) * cell + y),
-                          columns[c].pixel(0, y), static_cast<size_t>(cell) * 3);
-            }
-          }
-        }
+  // Rank 0: /contours (every translation's region borders as polylines) and the overlay PNG.
+  void WriteContours() {
+    io::H5File& f = output_.file;
+    const contour::Palette palette = PaletteOf(t_.regions);
+    contour::BorderOptions border_options;
+    border_options.min_points = o_.contour_min_points;
+    std::vector<int32_t> table;  // frame, region, neighbor, closed, first point, point count
+    std::vector<float> points;
+    const int overlay_frames = static_cast<int>(std::min<int64_t>(o_.overlay_count, num_frames_));
+    const int cell = size_ * o_.overlay_scale;
+    Image8 overlay(3 * cell, std::max(1, overlay_frames) * cell, 3);
+    for (int64_t frame = 0; frame < num_frames_; ++frame) {
+      Image8 translated(size_, size_, 3);
+      f.ReadFrames<uint8_t>("/frames/translated", frame, 1, translated.data.data());
+      const auto labels = contour::ClassifyPixels(translated, palette);
+      const auto borders = contour::ExtractBorders(labels, size_, size_, palette.num_labels(), border_options);
+      for (const auto& b : borders) {
+        table.insert(table.end(), {static_cast<int32_t>(frame), b.region, b.neighbor, b.closed ? 1 : 0,
+                                   static_cast<int32_t>(points.size() / 2),
+                                   static_cast<int32_t>(b.points.size())});
+        for (const auto& p : b.points) points.insert(points.end(), {p[0], p[1]});
       }
-      const int64_t rows = static_cast<int64_t>(table.size() / 6);
-      if (f.Exists("/contours")) f.Remove("/contours");
-      f.Write<int32_t>("/contours/borders", {rows, 6}, table.data());
-      f.SetAttribute("/contours/borders", "columns",
-                     std::string("frame, region, neighbor, closed, first_point, point_count"));
-      f.SetAttribute("/contours/borders", "labels",
-                     std::string("indices into /regions/names; the background is len(names)"));
-      f.Write<float>("/contours/points", {static_cast<int64_t>(points.size() / 2), 2}, points.data());
-      f.SetAttribute("/contours/points", "units",
-                     std::string("pixels of /frames/translated (x right, y down), pixel centres at +0.5"));
-      if (o.overlay != "none") {
-        const std::string overlay_path = o.overlay.empty() ? WithSuffix(o.out, "_contours.png") : o.overlay;
-        io::WriteImage(overlay_path, overlay);
-      }
-      FC_INFO("deepfake infer: {} borders ({} points) over {} frames", rows, points.size() / 2, num_frames);
+      if (frame < overlay_frames) AddOverlayRow(frame, translated, borders, palette, cell, &overlay);
     }
-    f.Commit();
-    const bool labels = model->options().palette_colors > 0 && o.decoder == "A";
-    FC_INFO("deepfake infer: {} frames -> {}{}{}{}{}", num_frames, o.out,
-            averaged ? " (averaged weights)" : "", labels && o.flip_average ? " (flip-averaged labels)" : "",
-            labels && o.shift_average > 0 ? " (shift-averaged labels)" : "",
-            corrected ? fmt::format(" (prior correction {})", o.prior_correction) : std::string());
-  });
+    const int64_t rows = static_cast<int64_t>(table.size() / 6);
+    if (f.Exists("/contours")) f.Remove("/contours");
+    f.Write<int32_t>("/contours/borders", {rows, 6}, table.data());
+    f.SetAttribute("/contours/borders", "columns",
+                   std::string("frame, region, neighbor, closed, first_point, point_count"));
+    f.SetAttribute("/contours/borders", "labels",
+                   std::string("indices into /regions/names; the background is len(names)"));
+    f.Write<float>("/contours/points", {static_cast<int64_t>(points.size() / 2), 2}, points.data());
+    f.SetAttribute("/contours/points", "units",
+                   std::string("pixels of /frames/translated (x right, y down), pixel centres at +0.5"));
+    if (o_.overlay != "none") {
+      io::WriteImage(o_.overlay.empty() ? WithSuffix(o_.out, "_contours.png") : o_.overlay, overlay);
+    }
+    FC_INFO("deepfake infer: {} borders ({} points) over {} frames", rows, points.size() / 2, num_frames_);
+  }
+
+  // Row `frame` of the overlay: I_R, D_S(E(I_R)), and the borders of D_S(E(I_R)) on I_R
+  // (paper 000 Fig. 7).
+  void AddOverlayRow(int64_t frame, const Image8& translated, const std::vector<contour::Border>& borders,
+                     const contour::Palette& palette, int cell, Image8* overlay) {
+    Image8 real_image(size_, size_, 3);
+    real_image.data = InputImage(frame);
+    const Image8 columns[3] = {contour::DrawBorders(real_image, {}, palette, o_.overlay_scale),
+                               contour::DrawBorders(translated, {}, palette, o_.overlay_scale),
+                               contour::DrawBorders(real_image, borders, palette, o_.overlay_scale)};
+    for (int c = 0; c < 3; ++c) {
+      for (int y = 0; y < cell; ++y) {
+        std::memcpy(overlay->pixel(c * cell, static_cast<int>(frame) * cell + y),
+                    columns[c].pixel(0, y), static_cast<size_t>(cell) * 3);
+      }
+    }
+  }
+
+  const DeepfakeInferOptions& o_;
+  const StageContext& ctx_;
+  const io::Config& resolved_;
+  const dist::Comm& comm_;
+  Translator t_;
+  io::H5File frames_file_;
+  std::string dataset_;
+  int64_t num_frames_ = 0;
+  int frame_size_ = 0;
+  int size_ = 0;        // the network's image size
+  int64_t latent_ = 0;  // floats of a code E(I)
+  ResumableOutput output_;  // rank 0
+  std::vector<int64_t> pending_;
+};
+
+void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<DeepfakeInferOptions>(flags, &ctx, &resolved);
+  nn::SetTorchThreads(ThreadsPerRank(o.threads));
+  DeepfakeInference(o, ctx, resolved).Run();
 }
 
 }  // namespace
