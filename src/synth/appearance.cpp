@@ -276,23 +276,20 @@ bool SkinTextureOptions::Check(std::string* why) const {
   return true;
 }
 
-ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t seed,
-                       const SkinTextureOptions& options) {
-  std::string why;
-  if (!options.Check(&why)) throw InvalidInputError("skin texture: " + why);
-  if (rig.uvs.rows() == 0 || rig.uv_triangles.rows() != rig.triangles.rows()) {
-    throw InvalidInputError("skin texture: the rig has no UVs (uvs and uv_triangles)");
-  }
-  if (rig.landmarks.size() != 68) {
-    throw InvalidInputError("skin texture: the rig needs the 68 iBUG landmarks");
-  }
-  const int N = options.texture_size;
-  const int F = static_cast<int>(rig.triangles.rows());
+namespace {
 
-  // 1. Bake: per texel the covering triangle and its point on the neutral mesh. Triangles
-  // whose UV edges are far longer than their surface edges warrant (rims that join a chart to
-  // another, e.g. a mouth or eye pocket to the lip or lid margin) would smear over the charts
-  // they cross: they are not baked, and show the texels their UVs pass over.
+// Per texel of an N x N texture: the covering triangle (-1: none), its point on the neutral
+// mesh and its barycentric coordinates.
+struct TexelBake {
+  std::vector<int32_t> triangle;
+  std::vector<Eigen::Vector3f> position, barycentrics;
+};
+
+// Triangles whose UV edges are far longer than their surface edges warrant (rims that join a
+// chart to another, e.g. a mouth or eye pocket to the lip or lid margin) would smear over the
+// charts they cross: they are not baked, and show the texels their UVs pass over.
+std::vector<bool> SmearingTriangles(const rig::Rig& rig) {
+  const int F = static_cast<int>(rig.triangles.rows());
   std::vector<float> texel_density(F, 0.f);  // longest UV edge per unit surface length
   for (int f = 0; f < F; ++f) {
     for (int k = 0; k < 3; ++k) {
@@ -305,11 +302,20 @@ ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t
   std::vector<float> sorted_density = texel_density;
   std::nth_element(sorted_density.begin(), sorted_density.begin() + F / 2, sorted_density.end());
   const float max_density = 12.f * sorted_density[F / 2];
-  std::vector<int32_t> texel_triangle(static_cast<size_t>(N) * N, -1);
-  std::vector<Eigen::Vector3f> texel_position(static_cast<size_t>(N) * N, Eigen::Vector3f::Zero());
-  std::vector<Eigen::Vector3f> texel_barycentrics(static_cast<size_t>(N) * N, Eigen::Vector3f::Zero());
+  std::vector<bool> smearing(F);
+  for (int f = 0; f < F; ++f) smearing[f] = texel_density[f] > max_density;
+  return smearing;
+}
+
+TexelBake BakeTexels(const rig::Rig& rig, int N) {
+  const int F = static_cast<int>(rig.triangles.rows());
+  const std::vector<bool> smearing = SmearingTriangles(rig);
+  TexelBake bake;
+  bake.triangle.assign(static_cast<size_t>(N) * N, -1);
+  bake.position.assign(static_cast<size_t>(N) * N, Eigen::Vector3f::Zero());
+  bake.barycentrics.assign(static_cast<size_t>(N) * N, Eigen::Vector3f::Zero());
   for (int f = 0; f < F; ++f) {
-    if (texel_density[f] > max_density) continue;
+    if (smearing[f]) continue;
     Eigen::Vector2f t[3];
     Eigen::Vector3f p[3];
     for (int k = 0; k < 3; ++k) {
@@ -336,18 +342,22 @@ ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t
         const size_t i = static_cast<size_t>(y) * N + x;
         const Eigen::Vector3f position = b0 * p[0] + b1 * p[1] + b2 * p[2];
         // Charts made by front projection (eyeballs) hold a front and a back: the front wins.
-        if (texel_triangle[i] >= 0 && texel_position[i].z() >= position.z()) continue;
-        texel_triangle[i] = f;
-        texel_position[i] = position;
-        texel_barycentrics[i] = Eigen::Vector3f(b0, b1, b2);
+        if (bake.triangle[i] >= 0 && bake.position[i].z() >= position.z()) continue;
+        bake.triangle[i] = f;
+        bake.position[i] = position;
+        bake.barycentrics[i] = Eigen::Vector3f(b0, b1, b2);
       }
     }
   }
+  return bake;
+}
 
-  // Cavities (eye sockets, nostrils, folds, mouth corners) catch less light: a per-vertex
-  // concavity (the normal's component of the way to the neighbours' centroid, in units of
-  // the local edge length), smoothed a few times, darkens the albedo as baked-in occlusion.
+// Cavities (eye sockets, nostrils, folds, mouth corners) catch less light: a per-vertex
+// concavity (the normal's component of the way to the neighbours' centroid, in units of the
+// local edge length), smoothed a few times, darkens the albedo as baked-in occlusion.
+std::vector<float> VertexCavity(const rig::Rig& rig) {
   const int V = rig.NumVertices();
+  const int F = static_cast<int>(rig.triangles.rows());
   std::vector<std::vector<int>> neighbours(V);
   Eigen::MatrixXf vertex_normals = Eigen::MatrixXf::Zero(V, 3);
   for (int f = 0; f < F; ++f) {
@@ -389,140 +399,156 @@ ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t
     }
     cavity.swap(smoothed);
   }
+  return cavity;
+}
 
-  // 2. Face landmarks on the neutral mesh place cheeks, nose tip and lash lines.
+// What the texel colours depend on beyond the texel: places on the face from its landmarks
+// (cheeks, nose tip, lash lines), each region's material, moles, the noise seed.
+struct FaceLayout {
+  float eye_span = 0.f;       // outer eye corners' distance
+  Eigen::Vector3f cheeks[2];
+  Eigen::Vector3f nose_tip;
+  float eye_level = 0.f;
+  std::vector<Eigen::Vector3f> upper_lash[2], lower_lash[2];
+  std::vector<Material> region_material;
+  std::vector<std::pair<Eigen::Vector3f, float>> moles;  // centre, radius
+  uint32_t noise_seed = 0;
+};
+
+FaceLayout LayOutFace(const rig::Rig& rig, uint64_t seed) {
+  FaceLayout l;
   std::vector<Eigen::Vector3f> lm(68);
   for (int k = 0; k < 68; ++k) lm[k] = rig.neutral.row(rig.landmarks[k]).transpose();
-  const float eye_span = (lm[36] - lm[45]).norm();  // outer eye corners
-  const Eigen::Vector3f cheeks[2] = {0.3f * lm[1] + 0.3f * lm[31] + 0.4f * lm[41],
-                                     0.3f * lm[15] + 0.3f * lm[35] + 0.4f * lm[46]};
-  const Eigen::Vector3f nose_tip = lm[30];
-  const float eye_level = 0.25f * (lm[36].y() + lm[39].y() + lm[42].y() + lm[45].y());
-  const std::vector<Eigen::Vector3f> upper_lash[2] = {{lm[36], lm[37], lm[38], lm[39]},
-                                                      {lm[42], lm[43], lm[44], lm[45]}};
-  const std::vector<Eigen::Vector3f> lower_lash[2] = {{lm[39], lm[40], lm[41], lm[36]},
-                                                      {lm[45], lm[46], lm[47], lm[42]}};
-  std::vector<Material> region_material(rig.regions.size());
-  for (size_t r = 0; r < rig.regions.size(); ++r) region_material[r] = MaterialOfRegion(rig.regions[r].name);
-
+  l.eye_span = (lm[36] - lm[45]).norm();
+  l.cheeks[0] = 0.3f * lm[1] + 0.3f * lm[31] + 0.4f * lm[41];
+  l.cheeks[1] = 0.3f * lm[15] + 0.3f * lm[35] + 0.4f * lm[46];
+  l.nose_tip = lm[30];
+  l.eye_level = 0.25f * (lm[36].y() + lm[39].y() + lm[42].y() + lm[45].y());
+  l.upper_lash[0] = {lm[36], lm[37], lm[38], lm[39]};
+  l.upper_lash[1] = {lm[42], lm[43], lm[44], lm[45]};
+  l.lower_lash[0] = {lm[39], lm[40], lm[41], lm[36]};
+  l.lower_lash[1] = {lm[45], lm[46], lm[47], lm[42]};
+  l.region_material.resize(rig.regions.size());
+  for (size_t r = 0; r < rig.regions.size(); ++r) l.region_material[r] = MaterialOfRegion(rig.regions[r].name);
   // Moles and freckles: a few small dark spots on the face.
   Rng rng(seed, 0x7E27u);
-  std::vector<std::pair<Eigen::Vector3f, float>> moles;
   const int num_moles = static_cast<int>(rng.UniformInt(7));
   for (int m = 0; m < num_moles; ++m) {
     const Eigen::Vector3f a = lm[rng.UniformInt(68)], b = lm[rng.UniformInt(68)];
     const Eigen::Vector3f c = Lerp(a, b, static_cast<float>(rng.Uniform()));
-    moles.emplace_back(c, static_cast<float>(rng.Uniform(0.05, 0.12)));
+    l.moles.emplace_back(c, static_cast<float>(rng.Uniform(0.05, 0.12)));
   }
-  const uint32_t s = static_cast<uint32_t>(seed * 2654435761u + 12345u);
-  const Eigen::Vector3f eyelid_tint(0.93f, 0.84f, 0.84f);
-  const Eigen::Vector3f mouth_color = Srgb8(96, 30, 36);
-  const Eigen::Vector3f pupil_color = Srgb8(12, 10, 10);
+  l.noise_seed = static_cast<uint32_t>(seed * 2654435761u + 12345u);
+  return l;
+}
+
+// Skin at point p: base tone, low-frequency blotches (`blotch`), a hue drift, fine pores,
+// redness of the cheeks and nose, moles.
+Eigen::Vector3f SkinAt(const Eigen::Vector3f& p, float blotch, const FaceLayout& l,
+                       const PersonColors& colors, const SkinTextureOptions& options) {
+  const uint32_t s = l.noise_seed;
   const Eigen::Vector3f red_shift(1.0f, 0.72f, 0.74f);  // multiplies the skin where it reddens
-
-  // 3. Colour of each covered texel.
-  ImageF texture(N, N, 3);
-  std::vector<uint8_t> covered(static_cast<size_t>(N) * N, 0);
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < N; ++y) {
-    for (int x = 0; x < N; ++x) {
-      const size_t i = static_cast<size_t>(y) * N + x;
-      const int f = texel_triangle[i];
-      if (f < 0) continue;
-      covered[i] = 1;
-      const Eigen::Vector3f& p = texel_position[i];
-      const int region = rig.triangle_region[f];
-      const Material material = region >= 0 && region < static_cast<int>(region_material.size())
-                                    ? region_material[region] : Material::kSkin;
-      // Skin: base tone, low-frequency blotches, a hue drift, fine pores.
-      const float blotch = Fbm(p, 0.35f, 3, s);
-      const float hue = Fbm(p, 0.2f, 2, s + 7u);
-      const float pores = Fbm(p, 4.f, 2, s + 13u);
-      Eigen::Vector3f skin = colors.skin * (1.f + options.blotch_strength * blotch) *
-                             (1.f + options.pore_strength * pores);
-      skin = skin.cwiseProduct(Eigen::Vector3f(1.f + 0.06f * hue, 1.f, 1.f - 0.08f * hue));
-      float redness = 0.f;
-      for (const auto& c : cheeks) {
-        const float d = (p - c).norm() / (0.2f * eye_span);
-        redness = std::max(redness, std::exp(-0.5f * d * d));
-      }
-      const float dn = (p - nose_tip).norm() / (0.09f * eye_span);
-      redness = std::max(redness, 0.7f * std::exp(-0.5f * dn * dn));
-      redness *= options.cheek_redness * (0.8f + 0.4f * Fbm(p, 1.5f, 2, s + 17u));
-      skin = Lerp(skin, skin.cwiseProduct(red_shift), std::clamp(redness, 0.f, 1.f));
-      for (const auto& mole : moles) {
-        if ((p - mole.first).norm() < mole.second) skin *= 0.55f;
-      }
-      Eigen::Vector3f albedo = skin;
-      const Eigen::Vector3f& b = texel_barycentrics[i];
-      const float concavity = b[0] * cavity[rig.triangles(f, 0)] + b[1] * cavity[rig.triangles(f, 1)] +
-                              b[2] * cavity[rig.triangles(f, 2)];
-      const float occlusion = 1.f - options.occlusion_strength * Smoothstep(0.f, 0.12f, concavity);
-      switch (material) {
-        case Material::kSkin:
-        case Material::kNose:
-          break;
-        case Material::kNeck:
-          albedo = skin * 0.88f;
-          break;
-        case Material::kEyelid:
-          albedo = skin.cwiseProduct(eyelid_tint);
-          break;
-        case Material::kLips: {
-          const float lines = ValueNoise(p.x() * 9.f, p.y() * 0.8f, p.z() * 0.8f, s + 23u);
-          albedo = colors.lips * (1.f + 0.08f * lines + 0.5f * options.blotch_strength * blotch);
-          break;
-        }
-        case Material::kMouth:
-          albedo = mouth_color;
-          break;
-        case Material::kBrow: {
-          // Hairs along the brow (x), dense in the middle.
-          const float strands = 0.5f + 0.5f * ValueNoise(p.x() * 2.f, p.y() * 14.f, p.z() * 6.f, s + 29u);
-          const float density = std::clamp(0.65f + 0.45f * strands, 0.f, 1.f);
-          albedo = Lerp(skin, colors.hair * 0.8f, density);
-          break;
-        }
-        case Material::kHair: {
-          // Strands run front to back: fine across (x), long along y and z.
-          const float strands = ValueNoise(p.x() * 6.f, p.y() * 0.7f, p.z() * 0.7f, s + 31u);
-          const float clumps = Fbm(p, 0.8f, 2, s + 37u);
-          albedo = colors.hair * (1.f + 0.35f * strands + 0.25f * clumps);
-          break;
-        }
-        case Material::kSclera: {
-          const float veins = std::max(0.f, Fbm(p, 6.f, 2, s + 41u) - 0.3f);
-          albedo = colors.sclera.cwiseProduct(Eigen::Vector3f(1.f, 1.f - 0.2f * veins, 1.f - 0.2f * veins));
-          // Lids and lashes shade the eye white away from its centre.
-          albedo *= 0.85f - 0.25f * Smoothstep(0.3f, 1.2f, std::abs(p.y() - eye_level) / (0.06f * eye_span));
-          break;
-        }
-        case Material::kIris:
-          albedo = colors.iris * (1.f + 0.3f * ValueNoise(p.x() * 12.f, p.y() * 12.f, p.z() * 12.f, s + 43u));
-          break;
-        case Material::kPupil:
-          albedo = pupil_color;
-          break;
-      }
-      // Lash lines on the eyelid margins (and a little of the skin next to them).
-      if (material == Material::kEyelid || material == Material::kSkin) {
-        float lash = 0.f;
-        for (int e = 0; e < 2; ++e) {
-          const float du = PolylineDistance(p, upper_lash[e]) / (0.045f * eye_span);
-          const float dl = PolylineDistance(p, lower_lash[e]) / (0.03f * eye_span);
-          lash = std::max({lash, 1.f - Smoothstep(0.5f, 1.f, du), 0.6f * (1.f - Smoothstep(0.5f, 1.f, dl))});
-        }
-        albedo = Lerp(albedo, colors.hair * 0.4f, options.lash_darkness * lash);
-      }
-      if (material != Material::kMouth && material != Material::kPupil && material != Material::kIris &&
-          material != Material::kSclera) {
-        albedo *= occlusion;
-      }
-      for (int c = 0; c < 3; ++c) texture.at(x, y, c) = std::clamp(albedo[c], 0.f, 1.f);
-    }
+  const float hue = Fbm(p, 0.2f, 2, s + 7u);
+  const float pores = Fbm(p, 4.f, 2, s + 13u);
+  Eigen::Vector3f skin = colors.skin * (1.f + options.blotch_strength * blotch) *
+                         (1.f + options.pore_strength * pores);
+  skin = skin.cwiseProduct(Eigen::Vector3f(1.f + 0.06f * hue, 1.f, 1.f - 0.08f * hue));
+  float redness = 0.f;
+  for (const auto& c : l.cheeks) {
+    const float d = (p - c).norm() / (0.2f * l.eye_span);
+    redness = std::max(redness, std::exp(-0.5f * d * d));
   }
+  const float dn = (p - l.nose_tip).norm() / (0.09f * l.eye_span);
+  redness = std::max(redness, 0.7f * std::exp(-0.5f * dn * dn));
+  redness *= options.cheek_redness * (0.8f + 0.4f * Fbm(p, 1.5f, 2, s + 17u));
+  skin = Lerp(skin, skin.cwiseProduct(red_shift), std::clamp(redness, 0.f, 1.f));
+  for (const auto& mole : l.moles) {
+    if ((p - mole.first).norm() < mole.second) skin *= 0.55f;
+  }
+  return skin;
+}
 
-  // 4. Fill uncovered texels from covered neighbours (a few rings), then the skin colour.
+// The albedo of `material` at point p over `skin`.
+Eigen::Vector3f MaterialAlbedo(Material material, const Eigen::Vector3f& p, const Eigen::Vector3f& skin,
+                               float blotch, const FaceLayout& l, const PersonColors& colors,
+                               const SkinTextureOptions& options) {
+  const uint32_t s = l.noise_seed;
+  switch (material) {
+    case Material::kSkin:
+    case Material::kNose:
+      return skin;
+    case Material::kNeck:
+      return skin * 0.88f;
+    case Material::kEyelid:
+      return skin.cwiseProduct(Eigen::Vector3f(0.93f, 0.84f, 0.84f));
+    case Material::kLips: {
+      const float lines = ValueNoise(p.x() * 9.f, p.y() * 0.8f, p.z() * 0.8f, s + 23u);
+      return colors.lips * (1.f + 0.08f * lines + 0.5f * options.blotch_strength * blotch);
+    }
+    case Material::kMouth:
+      return Srgb8(96, 30, 36);
+    case Material::kBrow: {
+      // Hairs along the brow (x), dense in the middle.
+      const float strands = 0.5f + 0.5f * ValueNoise(p.x() * 2.f, p.y() * 14.f, p.z() * 6.f, s + 29u);
+      const float density = std::clamp(0.65f + 0.45f * strands, 0.f, 1.f);
+      return Lerp(skin, colors.hair * 0.8f, density);
+    }
+    case Material::kHair: {
+      // Strands run front to back: fine across (x), long along y and z.
+      const float strands = ValueNoise(p.x() * 6.f, p.y() * 0.7f, p.z() * 0.7f, s + 31u);
+      const float clumps = Fbm(p, 0.8f, 2, s + 37u);
+      return colors.hair * (1.f + 0.35f * strands + 0.25f * clumps);
+    }
+    case Material::kSclera: {
+      const float veins = std::max(0.f, Fbm(p, 6.f, 2, s + 41u) - 0.3f);
+      Eigen::Vector3f albedo = colors.sclera.cwiseProduct(Eigen::Vector3f(1.f, 1.f - 0.2f * veins, 1.f - 0.2f * veins));
+      // Lids and lashes shade the eye white away from its centre.
+      albedo *= 0.85f - 0.25f * Smoothstep(0.3f, 1.2f, std::abs(p.y() - l.eye_level) / (0.06f * l.eye_span));
+      return albedo;
+    }
+    case Material::kIris:
+      return colors.iris * (1.f + 0.3f * ValueNoise(p.x() * 12.f, p.y() * 12.f, p.z() * 12.f, s + 43u));
+    case Material::kPupil:
+      return Srgb8(12, 10, 10);
+  }
+  return skin;
+}
+
+// The colour of texel i (covered by triangle f).
+Eigen::Vector3f TexelAlbedo(const rig::Rig& rig, const TexelBake& bake, const std::vector<float>& cavity,
+                            size_t i, const FaceLayout& l, const PersonColors& colors,
+                            const SkinTextureOptions& options) {
+  const int f = bake.triangle[i];
+  const Eigen::Vector3f& p = bake.position[i];
+  const int region = rig.triangle_region[f];
+  const Material material = region >= 0 && region < static_cast<int>(l.region_material.size())
+                                ? l.region_material[region] : Material::kSkin;
+  const float blotch = Fbm(p, 0.35f, 3, l.noise_seed);
+  const Eigen::Vector3f skin = SkinAt(p, blotch, l, colors, options);
+  Eigen::Vector3f albedo = MaterialAlbedo(material, p, skin, blotch, l, colors, options);
+  // Lash lines on the eyelid margins (and a little of the skin next to them).
+  if (material == Material::kEyelid || material == Material::kSkin) {
+    float lash = 0.f;
+    for (int e = 0; e < 2; ++e) {
+      const float du = PolylineDistance(p, l.upper_lash[e]) / (0.045f * l.eye_span);
+      const float dl = PolylineDistance(p, l.lower_lash[e]) / (0.03f * l.eye_span);
+      lash = std::max({lash, 1.f - Smoothstep(0.5f, 1.f, du), 0.6f * (1.f - Smoothstep(0.5f, 1.f, dl))});
+    }
+    albedo = Lerp(albedo, colors.hair * 0.4f, options.lash_darkness * lash);
+  }
+  if (material != Material::kMouth && material != Material::kPupil && material != Material::kIris &&
+      material != Material::kSclera) {
+    const Eigen::Vector3f& b = bake.barycentrics[i];
+    const float concavity = b[0] * cavity[rig.triangles(f, 0)] + b[1] * cavity[rig.triangles(f, 1)] +
+                            b[2] * cavity[rig.triangles(f, 2)];
+    albedo *= 1.f - options.occlusion_strength * Smoothstep(0.f, 0.12f, concavity);
+  }
+  return albedo;
+}
+
+// Uncovered texels take their covered neighbours' mean (a few rings), then `fill`.
+void FillUncovered(std::vector<uint8_t> covered, const Eigen::Vector3f& fill, ImageF* texture) {
+  const int N = texture->width;
   for (int ring = 0; ring < 6; ++ring) {
     std::vector<uint8_t> next = covered;
     for (int y = 0; y < N; ++y) {
@@ -536,11 +562,11 @@ ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t
           if (nx[k] < 0 || ny[k] < 0 || nx[k] >= N || ny[k] >= N) continue;
           const size_t j = static_cast<size_t>(ny[k]) * N + nx[k];
           if (!covered[j]) continue;
-          for (int c = 0; c < 3; ++c) acc[c] += texture.at(nx[k], ny[k], c);
+          for (int c = 0; c < 3; ++c) acc[c] += texture->at(nx[k], ny[k], c);
           ++n;
         }
         if (n == 0) continue;
-        for (int c = 0; c < 3; ++c) texture.at(x, y, c) = acc[c] / n;
+        for (int c = 0; c < 3; ++c) texture->at(x, y, c) = acc[c] / n;
         next[i] = 1;
       }
     }
@@ -549,9 +575,42 @@ ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t
   for (int y = 0; y < N; ++y) {
     for (int x = 0; x < N; ++x) {
       if (covered[static_cast<size_t>(y) * N + x]) continue;
-      for (int c = 0; c < 3; ++c) texture.at(x, y, c) = colors.skin[c];
+      for (int c = 0; c < 3; ++c) texture->at(x, y, c) = fill[c];
     }
   }
+}
+
+}  // namespace
+
+ImageF MakeSkinTexture(const rig::Rig& rig, const PersonColors& colors, uint64_t seed,
+                       const SkinTextureOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw InvalidInputError("skin texture: " + why);
+  if (rig.uvs.rows() == 0 || rig.uv_triangles.rows() != rig.triangles.rows()) {
+    throw InvalidInputError("skin texture: the rig has no UVs (uvs and uv_triangles)");
+  }
+  if (rig.landmarks.size() != 68) {
+    throw InvalidInputError("skin texture: the rig needs the 68 iBUG landmarks");
+  }
+  const int N = options.texture_size;
+  // 1. Bake each texel's point on the neutral mesh; 2. the occlusion of cavities and the
+  // places on the face; 3. the colour of each covered texel; 4. the uncovered texels.
+  const TexelBake bake = BakeTexels(rig, N);
+  const std::vector<float> cavity = VertexCavity(rig);
+  const FaceLayout layout = LayOutFace(rig, seed);
+  ImageF texture(N, N, 3);
+  std::vector<uint8_t> covered(static_cast<size_t>(N) * N, 0);
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < N; ++y) {
+    for (int x = 0; x < N; ++x) {
+      const size_t i = static_cast<size_t>(y) * N + x;
+      if (bake.triangle[i] < 0) continue;
+      covered[i] = 1;
+      const Eigen::Vector3f albedo = TexelAlbedo(rig, bake, cavity, i, layout, colors, options);
+      for (int c = 0; c < 3; ++c) texture.at(x, y, c) = std::clamp(albedo[c], 0.f, 1.f);
+    }
+  }
+  FillUncovered(std::move(covered), colors.skin, &texture);
   return texture;
 }
 
