@@ -96,15 +96,19 @@ float Cross(const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
 
 void SoftSegmentationRenderer::Render(const rig::Vertices& camera_vertices,
                                       const render::Camera& camera, SoftRender* out) const {
-  const rig::Triangles& tris = rig_.triangles;
   render::RasterizeOptions raster;
   raster.barycentrics = false;  // triangle ids and depth are all this render reads
-  render::Rasterize(camera_vertices, tris, camera, &out->gbuffer, raster);
-  const render::GBuffer& g = out->gbuffer;
-  const int W = g.width, H = g.height, num_pixels = g.NumPixels();
-  const float w = options_.edge_width_px;
+  render::Rasterize(camera_vertices, rig_.triangles, camera, &out->gbuffer, raster);
+  HardColors(out);
+  ScreenAndFacing(camera_vertices, camera, out);
+  BorderEdges(out);
+  NearestBorderEdges(out);
+  SoftColors(camera_vertices, camera, out);
+}
 
-  // Hard colours.
+void SoftSegmentationRenderer::HardColors(SoftRender* out) const {
+  const render::GBuffer& g = out->gbuffer;
+  const int num_pixels = g.NumPixels();
   out->color.resize(3 * static_cast<size_t>(num_pixels));
   for (int p = 0; p < num_pixels; ++p) {
     const int t = g.triangle[p];
@@ -115,8 +119,11 @@ void SoftSegmentationRenderer::Render(const rig::Vertices& camera_vertices,
     out->color[3 * p + 2] = c.z();
   }
   out->hard_color = out->color;
+}
 
-  // Screen positions and facing.
+void SoftSegmentationRenderer::ScreenAndFacing(const rig::Vertices& camera_vertices,
+                                               const render::Camera& camera, SoftRender* out) const {
+  const rig::Triangles& tris = rig_.triangles;
   const int num_vertices = static_cast<int>(camera_vertices.rows());
   out->screen.resize(num_vertices);
   for (int v = 0; v < num_vertices; ++v) {
@@ -133,6 +140,12 @@ void SoftSegmentationRenderer::Render(const rig::Vertices& camera_vertices,
     // Counter-clockwise in camera space is clockwise on the y-down screen: negative area.
     out->front[f] = in_front && Cross((b - a).head<2>(), (c - a).head<2>()) < 0.f;
   }
+}
+
+void SoftSegmentationRenderer::BorderEdges(SoftRender* out) const {
+  const rig::Triangles& tris = rig_.triangles;
+  const render::GBuffer& g = out->gbuffer;
+  const int W = g.width, H = g.height;
   auto front_facing = [&](int f) { return f >= 0 && out->front[f] != 0; };
   auto hard_color_at = [&](const Eigen::Vector2f& uv) -> Eigen::Vector3f {
     const int x = static_cast<int>(std::floor(uv.x())), y = static_cast<int>(std::floor(uv.y()));
@@ -202,7 +215,12 @@ void SoftSegmentationRenderer::Render(const rig::Vertices& camera_vertices,
     out->edge_colors.push_back(color_a);
     out->edge_colors.push_back(color_b);
   }
+}
 
+void SoftSegmentationRenderer::NearestBorderEdges(SoftRender* out) const {
+  const render::GBuffer& g = out->gbuffer;
+  const int W = g.width, H = g.height, num_pixels = g.NumPixels();
+  const float w = options_.edge_width_px;
   // Nearest border edge of every pixel within w (segment distance), edges in ascending order
   // and ties kept by the first: the result does not depend on anything but the geometry.
   out->best_distance.assign(num_pixels, std::numeric_limits<float>::infinity());
@@ -229,7 +247,13 @@ void SoftSegmentationRenderer::Render(const rig::Vertices& camera_vertices,
       }
     }
   }
+}
 
+void SoftSegmentationRenderer::SoftColors(const rig::Vertices& camera_vertices,
+                                          const render::Camera& camera, SoftRender* out) const {
+  const render::GBuffer& g = out->gbuffer;
+  const int W = g.width, num_pixels = g.NumPixels();
+  const float w = options_.edge_width_px;
   // Soft colours and their derivatives.
   out->edge_pixels.clear();
   for (int p = 0; p < num_pixels; ++p) {

@@ -101,6 +101,17 @@ class SoftSegmentationRenderer {
     int v0, v1;       // v0 < v1
     int face0, face1; // adjacent faces; face1 = -1 on an open border of the mesh
   };
+  // The steps of Render: the hard colours, the vertices on the screen and the front faces,
+  // the visible border edges with their colours, each pixel's nearest border edge, and the
+  // soft colours with their derivatives.
+  void HardColors(SoftRender* out) const;
+  void ScreenAndFacing(const rig::Vertices& camera_vertices, const render::Camera& camera,
+                       SoftRender* out) const;
+  void BorderEdges(SoftRender* out) const;
+  void NearestBorderEdges(SoftRender* out) const;
+  void SoftColors(const rig::Vertices& camera_vertices, const render::Camera& camera,
+                  SoftRender* out) const;
+
   const rig::Rig& rig_;
   std::vector<Eigen::Vector3f> region_colors_;
   SoftSegmentationOptions options_;
