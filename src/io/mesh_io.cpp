@@ -765,106 +765,124 @@ namespace {
 
 // glTF of the rig's triangles and texture coordinates at vertex `positions` (cm, #V x 3), with
 // one morph target per shape when `morph_targets`, and the animation when given.
-void WriteGltf(const rig::Rig& rig, const rig::Vertices& positions, bool morph_targets,
-               const std::vector<std::vector<float>>* animation_weights, float fps,
-               const std::string& path) {
-  const int num_shapes = morph_targets ? rig.NumShapes() : 0;
-  if (animation_weights) {
-    if (!(fps > 0.f) || !std::isfinite(fps)) {
-      throw InvalidInputError("ExportRigToGltf(" + path + "): fps must be positive, got " +
-                              std::to_string(fps));
-    }
-    if (num_shapes == 0) {
-      throw InvalidInputError("ExportRigToGltf(" + path + "): an animation needs shapes");
-    }
-    for (size_t f = 0; f < animation_weights->size(); ++f) {
-      if (static_cast<int>((*animation_weights)[f].size()) != num_shapes) {
-        throw InvalidInputError("ExportRigToGltf(" + path + "): animation frame " +
-                                std::to_string(f) + " has " +
-                                std::to_string((*animation_weights)[f].size()) +
-                                " weights for " + std::to_string(num_shapes) + " shapes");
-      }
+// Checks an animation's frame rate and weight counts against the shapes exported.
+void CheckGltfAnimation(const std::vector<std::vector<float>>* animation_weights, float fps,
+                        int num_shapes, const std::string& path) {
+  if (!animation_weights) return;
+  if (!(fps > 0.f) || !std::isfinite(fps)) {
+    throw InvalidInputError("ExportRigToGltf(" + path + "): fps must be positive, got " +
+                            std::to_string(fps));
+  }
+  if (num_shapes == 0) {
+    throw InvalidInputError("ExportRigToGltf(" + path + "): an animation needs shapes");
+  }
+  for (size_t f = 0; f < animation_weights->size(); ++f) {
+    if (static_cast<int>((*animation_weights)[f].size()) != num_shapes) {
+      throw InvalidInputError("ExportRigToGltf(" + path + "): animation frame " +
+                              std::to_string(f) + " has " +
+                              std::to_string((*animation_weights)[f].size()) +
+                              " weights for " + std::to_string(num_shapes) + " shapes");
     }
   }
+}
 
-  // glTF has one index per corner: split vertices along texture seams. File vertex v < #V is
-  // rig vertex v (with the uv of its first corner), seam copies follow, so that welding on
-  // import gives the rig's vertex order back.
+// glTF has one index per corner: vertices split along texture seams. File vertex v < #V is
+// rig vertex v (with the uv of its first corner), seam copies follow, so that welding on
+// import gives the rig's vertex order back.
+struct GltfVertices {
+  std::vector<int> source_vertex, source_uv;  // per file vertex: rig vertex and uv (-1: none)
+  std::vector<uint32_t> indices;              // per corner
+};
+
+GltfVertices SplitAtSeams(const rig::Rig& rig) {
   const int num_vertices = rig.NumVertices();
   const bool has_uvs = rig.uvs.rows() > 0;
-  std::vector<int> source_vertex(num_vertices), source_uv(num_vertices, -1);
-  for (int v = 0; v < num_vertices; ++v) source_vertex[v] = v;
-  std::vector<uint32_t> indices;
-  indices.reserve(3 * rig.triangles.rows());
+  GltfVertices out;
+  out.source_vertex.resize(num_vertices);
+  out.source_uv.assign(num_vertices, -1);
+  for (int v = 0; v < num_vertices; ++v) out.source_vertex[v] = v;
+  out.indices.reserve(3 * rig.triangles.rows());
   std::unordered_map<uint64_t, int> seam_copy;
   for (int f = 0; f < rig.triangles.rows(); ++f) {
     for (int c = 0; c < 3; ++c) {
       const int v = rig.triangles(f, c);
       if (!has_uvs) {
-        indices.push_back(v);
+        out.indices.push_back(v);
         continue;
       }
       const int t = rig.uv_triangles(f, c);
-      if (source_uv[v] < 0) source_uv[v] = t;
-      if (source_uv[v] == t) {
-        indices.push_back(v);
+      if (out.source_uv[v] < 0) out.source_uv[v] = t;
+      if (out.source_uv[v] == t) {
+        out.indices.push_back(v);
         continue;
       }
       const uint64_t key = (static_cast<uint64_t>(v) << 32) | static_cast<uint32_t>(t);
-      auto [it, inserted] = seam_copy.emplace(key, static_cast<int>(source_vertex.size()));
+      auto [it, inserted] = seam_copy.emplace(key, static_cast<int>(out.source_vertex.size()));
       if (inserted) {
-        source_vertex.push_back(v);
-        source_uv.push_back(t);
+        out.source_vertex.push_back(v);
+        out.source_uv.push_back(t);
       }
-      indices.push_back(it->second);
+      out.indices.push_back(it->second);
     }
   }
-  const int num_file_vertices = static_cast<int>(source_vertex.size());
+  return out;
+}
 
-  GltfBufferBuilder buffer;
+// The accessors of the mesh: positions, uvs (-1: none), indices, one morph target per shape.
+struct GltfMeshAccessors {
+  int position = -1, uv = -1, index = -1;
+  std::vector<int> targets;
+};
+
+GltfMeshAccessors AddMeshData(const rig::Rig& rig, const rig::Vertices& positions, int num_shapes,
+                              const GltfVertices& vertices, GltfBufferBuilder* buffer) {
+  const int num_file_vertices = static_cast<int>(vertices.source_vertex.size());
+  GltfMeshAccessors a;
   std::vector<float> data(3 * num_file_vertices);
   for (int i = 0; i < num_file_vertices; ++i) {
     for (int c = 0; c < 3; ++c) {
-      data[3 * i + c] = positions(source_vertex[i], c) / kCentimetresPerMetre;
+      data[3 * i + c] = positions(vertices.source_vertex[i], c) / kCentimetresPerMetre;
     }
   }
-  const int position_accessor = buffer.AddFloats(data, 3, true, 34962);
-  int uv_accessor = -1;
-  if (has_uvs) {
+  a.position = buffer->AddFloats(data, 3, true, 34962);
+  if (rig.uvs.rows() > 0) {
     std::vector<float> uv(2 * num_file_vertices);
     for (int i = 0; i < num_file_vertices; ++i) {
-      const int t = source_uv[i];
+      const int t = vertices.source_uv[i];
       uv[2 * i] = t >= 0 ? rig.uvs(t, 0) : 0.f;
       uv[2 * i + 1] = t >= 0 ? 1.f - rig.uvs(t, 1) : 1.f;  // glTF's v runs downwards
     }
-    uv_accessor = buffer.AddFloats(uv, 2, false, 34962);
+    a.uv = buffer->AddFloats(uv, 2, false, 34962);
   }
-  const int index_accessor = buffer.AddIndices(indices);
+  a.index = buffer->AddIndices(vertices.indices);
   // Morph targets: the full effect S(e_i) - N of each shape, jaw skinning baked in.
-  const std::vector<rig::Vertices> shapes =
-      morph_targets ? FullShapes(rig) : std::vector<rig::Vertices>();
-  std::vector<int> target_accessors;
+  const std::vector<rig::Vertices> shapes = num_shapes > 0 ? FullShapes(rig) : std::vector<rig::Vertices>();
   for (int s = 0; s < num_shapes; ++s) {
     for (int i = 0; i < num_file_vertices; ++i) {
-      const int v = source_vertex[i];
+      const int v = vertices.source_vertex[i];
       for (int c = 0; c < 3; ++c) {
         data[3 * i + c] = (shapes[s](v, c) - rig.neutral(v, c)) / kCentimetresPerMetre;
       }
     }
-    target_accessors.push_back(buffer.AddFloats(data, 3, true, 34962));
+    a.targets.push_back(buffer->AddFloats(data, 3, true, 34962));
   }
+  return a;
+}
 
+// The JSON from "asset" through "meshes": one node, one mesh, its morph targets by name.
+std::string GltfMeshJson(const rig::Rig& rig, const GltfMeshAccessors& a) {
+  const int num_shapes = static_cast<int>(a.targets.size());
   std::string json = "{\"asset\":{\"version\":\"2.0\",\"generator\":\"facecap\"},";
   json += "\"scene\":0,\"scenes\":[{\"nodes\":[0]}],";
   json += "\"nodes\":[{\"name\":\"face\",\"mesh\":0}],";
   json += "\"meshes\":[{\"name\":\"face\",\"primitives\":[{\"attributes\":{\"POSITION\":" +
-          std::to_string(position_accessor);
-  if (uv_accessor >= 0) json += ",\"TEXCOORD_0\":" + std::to_string(uv_accessor);
-  json += "},\"indices\":" + std::to_string(index_accessor) + ",\"mode\":4";
+          std::to_string(a.position);
+  if (a.uv >= 0) json += ",\"TEXCOORD_0\":" + std::to_string(a.uv);
+  json += "},\"indices\":" + std::to_string(a.index) + ",\"mode\":4";
   if (num_shapes > 0) {
     json += ",\"targets\":[";
     for (int s = 0; s < num_shapes; ++s) {
-      json += (s ? "," : "") + std::string("{\"POSITION\":") + std::to_string(target_accessors[s]) + "}";
+      json += (s ? "," : "") + std::string("{\"POSITION\":") + std::to_string(a.targets[s]) + "}";
     }
     json += "]";
   }
@@ -876,46 +894,68 @@ void WriteGltf(const rig::Rig& rig, const rig::Vertices& positions, bool morph_t
     json += "]}";
   }
   json += "}]";
-  if (animation_weights && !animation_weights->empty()) {
-    const size_t num_frames = animation_weights->size();
-    std::vector<float> times(num_frames), weights;
-    weights.reserve(num_frames * num_shapes);
-    for (size_t f = 0; f < num_frames; ++f) {
-      times[f] = static_cast<float>(f) / fps;
-      weights.insert(weights.end(), (*animation_weights)[f].begin(), (*animation_weights)[f].end());
-    }
-    const int time_accessor = buffer.AddFloats(times, 1, true, 0);
-    const int weight_accessor = buffer.AddFloats(weights, 1, false, 0);
-    json += ",\"animations\":[{\"name\":\"performance\",\"samplers\":[{\"input\":" +
-            std::to_string(time_accessor) + ",\"output\":" + std::to_string(weight_accessor) +
-            ",\"interpolation\":\"LINEAR\"}],\"channels\":[{\"sampler\":0,\"target\":"
-            "{\"node\":0,\"path\":\"weights\"}}]}]";
+  return json;
+}
+
+// ",animations": the morph-target weights per frame at `fps`, linearly interpolated.
+std::string GltfAnimationJson(const std::vector<std::vector<float>>& animation_weights, float fps,
+                              int num_shapes, GltfBufferBuilder* buffer) {
+  const size_t num_frames = animation_weights.size();
+  std::vector<float> times(num_frames), weights;
+  weights.reserve(num_frames * num_shapes);
+  for (size_t f = 0; f < num_frames; ++f) {
+    times[f] = static_cast<float>(f) / fps;
+    weights.insert(weights.end(), animation_weights[f].begin(), animation_weights[f].end());
   }
-  json += ",\"accessors\":" + buffer.AccessorsJson();
-  json += ",\"bufferViews\":" + buffer.ViewsJson();
-  std::string bytes = buffer.bytes();
+  const int time_accessor = buffer->AddFloats(times, 1, true, 0);
+  const int weight_accessor = buffer->AddFloats(weights, 1, false, 0);
+  return ",\"animations\":[{\"name\":\"performance\",\"samplers\":[{\"input\":" +
+         std::to_string(time_accessor) + ",\"output\":" + std::to_string(weight_accessor) +
+         ",\"interpolation\":\"LINEAR\"}],\"channels\":[{\"sampler\":0,\"target\":"
+         "{\"node\":0,\"path\":\"weights\"}}]}]";
+}
+
+// Writes the JSON (without its "buffers") and the buffer as a .glb container, or as .gltf
+// text with the buffer in a base64 data URI.
+void WriteGltfFile(std::string json, std::string bytes, const std::string& path) {
   while (bytes.size() % 4) bytes += '\0';
-  const bool binary = EndsWith(path, ".glb");
-  if (binary) {
-    json += ",\"buffers\":[{\"byteLength\":" + std::to_string(bytes.size()) + "}]}";
-    while (json.size() % 4) json += ' ';
-    std::string glb;
-    glb.reserve(12 + 8 + json.size() + 8 + bytes.size());
-    glb += "glTF";
-    AppendUint32(&glb, 2);
-    AppendUint32(&glb, static_cast<uint32_t>(12 + 8 + json.size() + 8 + bytes.size()));
-    AppendUint32(&glb, static_cast<uint32_t>(json.size()));
-    glb += "JSON";
-    glb += json;
-    AppendUint32(&glb, static_cast<uint32_t>(bytes.size()));
-    glb += std::string("BIN\0", 4);
-    glb += bytes;
-    WriteFileAtomically(path, glb);
-  } else {
+  if (!EndsWith(path, ".glb")) {
     json += ",\"buffers\":[{\"byteLength\":" + std::to_string(bytes.size()) +
             ",\"uri\":\"data:application/octet-stream;base64," + Base64(bytes) + "\"}]}";
     WriteFileAtomically(path, json);
+    return;
   }
+  json += ",\"buffers\":[{\"byteLength\":" + std::to_string(bytes.size()) + "}]}";
+  while (json.size() % 4) json += ' ';
+  std::string glb;
+  glb.reserve(12 + 8 + json.size() + 8 + bytes.size());
+  glb += "glTF";
+  AppendUint32(&glb, 2);
+  AppendUint32(&glb, static_cast<uint32_t>(12 + 8 + json.size() + 8 + bytes.size()));
+  AppendUint32(&glb, static_cast<uint32_t>(json.size()));
+  glb += "JSON";
+  glb += json;
+  AppendUint32(&glb, static_cast<uint32_t>(bytes.size()));
+  glb += std::string("BIN\0", 4);
+  glb += bytes;
+  WriteFileAtomically(path, glb);
+}
+
+void WriteGltf(const rig::Rig& rig, const rig::Vertices& positions, bool morph_targets,
+               const std::vector<std::vector<float>>* animation_weights, float fps,
+               const std::string& path) {
+  const int num_shapes = morph_targets ? rig.NumShapes() : 0;
+  CheckGltfAnimation(animation_weights, fps, num_shapes, path);
+  const GltfVertices vertices = SplitAtSeams(rig);
+  GltfBufferBuilder buffer;
+  const GltfMeshAccessors accessors = AddMeshData(rig, positions, num_shapes, vertices, &buffer);
+  std::string json = GltfMeshJson(rig, accessors);
+  if (animation_weights && !animation_weights->empty()) {
+    json += GltfAnimationJson(*animation_weights, fps, num_shapes, &buffer);
+  }
+  json += ",\"accessors\":" + buffer.AccessorsJson();
+  json += ",\"bufferViews\":" + buffer.ViewsJson();
+  WriteGltfFile(std::move(json), buffer.bytes(), path);
 }
 
 }  // namespace
