@@ -835,16 +835,15 @@ class DeepfakeInference {
   }
 
   void Run() {
-    if (OpenOutput()) {
-      if (comm_.IsMainRank()) FC_INFO("deepfake infer: {} is up to date", o_.out);
-      return;
-    }
+    out_ = OpenFrameOutput(ctx_, resolved_, "deepfake infer", o_.out, num_frames_,
+                           [&](io::H5File* f, bool resumed) { PrepareOutput(f, resumed); });
+    if (out_.up_to_date) return;
     FrameLoopOptions loop;
     loop.what = "deepfake infer";
     loop.batch = o_.batch;
     loop.threads = 1;  // torch parallelizes inside each frame
     RunFrameLoop(
-        comm_, pending_, num_frames_, loop, [&](int64_t frame, int) { return Translate(frame); },
+        comm_, out_.pending, num_frames_, loop, [&](int64_t frame, int) { return Translate(frame); },
         [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
           Commit(frames, results);
         });
@@ -857,7 +856,7 @@ class DeepfakeInference {
       } else if (o_.contours) {
         WriteContours();
       }
-      output_.file.Commit();
+      out_.output.file.Commit();
       const bool labels = t_.model->options().palette_colors > 0 && o_.decoder == "A";
       FC_INFO("deepfake infer: {} frames -> {}{}{}{}{}", num_frames_, o_.out,
               t_.averaged ? " (averaged weights)" : "", labels && o_.flip_average ? " (flip-averaged labels)" : "",
@@ -867,37 +866,19 @@ class DeepfakeInference {
   }
 
  private:
-  // Rank 0 opens (or continues) the output; true on every rank when it is up to date.
-  bool OpenOutput() {
-    int up_to_date = 0;
-    dist::CoordinateExceptions(comm_, [&] {
-      if (!comm_.IsMainRank()) return;
-      output_ = OpenResumableOutput(o_.out, resolved_.ToToml(), MakeProvenance(ctx_, "deepfake infer", resolved_));
-      if (output_.up_to_date) {
-        up_to_date = 1;
-        return;
-      }
-      io::H5File& f = output_.file;
-      f.CreateFrames<uint8_t>("/frames/translated", {size_, size_, 3}, num_frames_, 16);
-      f.SetAttribute("/frames/translated", "meaning",
-                     std::string(o_.decoder == "A" ? "D_A(E(I)): the frame in the synthetic (segmentation) style"
-                                                   : "D_B(E(I))"));
-      f.SetAttribute("/frames/translated", "layout", std::string("frame, y, x, RGB"));
-      f.CreateFrames<float>("/frames/latent", {latent_}, num_frames_, 16);
-      f.SetAttribute("/frames/latent", "meaning", std::string("E(I), flattened [channels, y, x]"));
-      f.CreateFrames<float>("/frames/latent_of_translation", {latent_}, num_frames_, 16);
-      f.SetAttribute("/frames/latent_of_translation", "meaning",
-                     std::string("E(D(E(I))) of the stored 8-bit translation (paper 000 Sec. 9)"));
-      if (!output_.resumed) WriteFrameRecords(&f);
-      io::DoneMask mask(&f, num_frames_);
-      pending_ = mask.Pending();
-      if (output_.resumed) {
-        FC_INFO("deepfake infer: continuing {}: {} of {} frames already done",
-                io::H5File::PartialPath(o_.out), mask.NumDone(), num_frames_);
-      }
-    });
-    comm_.Broadcast(&up_to_date, sizeof(up_to_date));
-    return up_to_date != 0;
+  // The output's datasets (rank 0); `resumed`: a continued file.
+  void PrepareOutput(io::H5File* f, bool resumed) {
+    f->CreateFrames<uint8_t>("/frames/translated", {size_, size_, 3}, num_frames_, 16);
+    f->SetAttribute("/frames/translated", "meaning",
+                    std::string(o_.decoder == "A" ? "D_A(E(I)): the frame in the synthetic (segmentation) style"
+                                                  : "D_B(E(I))"));
+    f->SetAttribute("/frames/translated", "layout", std::string("frame, y, x, RGB"));
+    f->CreateFrames<float>("/frames/latent", {latent_}, num_frames_, 16);
+    f->SetAttribute("/frames/latent", "meaning", std::string("E(I), flattened [channels, y, x]"));
+    f->CreateFrames<float>("/frames/latent_of_translation", {latent_}, num_frames_, 16);
+    f->SetAttribute("/frames/latent_of_translation", "meaning",
+                    std::string("E(D(E(I))) of the stored 8-bit translation (paper 000 Sec. 9)"));
+    if (!resumed) WriteFrameRecords(f);
   }
 
   // What travels with the translations: the regions, ingest's face flags (the tracker skips
@@ -939,7 +920,7 @@ class DeepfakeInference {
   }
 
   void Commit(const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
-    io::H5File& f = output_.file;
+    io::H5File& f = out_.output.file;
     for (size_t k = 0; k < frames.size(); ++k) {
       ByteReader r(results[k]);
       const auto translated = r.GetVector<uint8_t>();
@@ -955,7 +936,7 @@ class DeepfakeInference {
 
   // Rank 0: /contours (every translation's region borders as polylines) and the overlay PNG.
   void WriteContours() {
-    io::H5File& f = output_.file;
+    io::H5File& f = out_.output.file;
     const contour::Palette palette = PaletteOf(t_.regions);
     contour::BorderOptions border_options;
     border_options.min_points = o_.contour_min_points;
@@ -1021,8 +1002,7 @@ class DeepfakeInference {
   int frame_size_ = 0;
   int size_ = 0;        // the network's image size
   int64_t latent_ = 0;  // floats of a code E(I)
-  ResumableOutput output_;  // rank 0
-  std::vector<int64_t> pending_;
+  FrameOutput out_;
 };
 
 void RunDeepfakeInfer(const StageFlags& flags, AppState* state) {

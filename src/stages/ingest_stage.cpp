@@ -213,11 +213,17 @@ class IngestRun {
 
   // `start`: when the run began (for the frame rate).
   IngestSummary Run(std::chrono::steady_clock::time_point start) {
-    if (OpenOutput()) {
+    out_ = OpenFrameOutput(ctx_, resolved_, "ingest", o_.out, n_,
+                           [&](io::H5File* f, bool resumed) {
+                             CreateIngestDatasets(f, n_, o_.crop_size);
+                             if (!resumed) WriteSourceRecords(f, *sources_[0], selected_, o_);
+                           },
+                           "/progress/detected");
+    if (out_.up_to_date) {
       IngestSummary s;
       if (comm_.IsMainRank()) {
         s = ReadIngestSummary(o_.out);
-        FC_INFO("ingest: {} is up to date; {}", o_.out, s.Line());
+        FC_INFO("ingest: {}", s.Line());
       }
       return s;
     }
@@ -226,7 +232,7 @@ class IngestRun {
     loop.batch = o_.batch;
     loop.threads = threads_;
     RunFrameLoop(
-        comm_, pending_detect_, n_, loop, [&](int64_t k, int thread) { return Detect(k, thread); },
+        comm_, out_.pending, n_, loop, [&](int64_t k, int thread) { return Detect(k, thread); },
         [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
           CommitDetections(frames, results);
         });
@@ -241,29 +247,6 @@ class IngestRun {
   }
 
  private:
-  // Rank 0 opens (or continues) the output; true on every rank when it is up to date.
-  bool OpenOutput() {
-    int up_to_date = 0;
-    dist::CoordinateExceptions(comm_, [&] {
-      if (!comm_.IsMainRank()) return;
-      output_ = OpenResumableOutput(o_.out, resolved_.ToToml(), MakeProvenance(ctx_, "ingest", resolved_));
-      if (output_.up_to_date) {
-        up_to_date = 1;
-        return;
-      }
-      io::H5File& f = output_.file;
-      CreateIngestDatasets(&f, n_, o_.crop_size);
-      if (!output_.resumed) WriteSourceRecords(&f, *sources_[0], selected_, o_);
-      io::DoneMask detected(&f, n_, "/progress/detected");
-      pending_detect_ = detected.Pending();
-      if (output_.resumed) {
-        FC_INFO("ingest: continuing {}: {} of {} frames detected", io::H5File::PartialPath(o_.out),
-                detected.NumDone(), n_);
-      }
-    });
-    comm_.Broadcast(&up_to_date, sizeof(up_to_date));
-    return up_to_date != 0;
-  }
 
   // Pass 1: decode frame k and detect its faces.
   std::vector<uint8_t> Detect(int64_t k, int thread) {
@@ -292,7 +275,7 @@ class IngestRun {
 
   void CommitDetections(const std::vector<int64_t>& frames,
                         const std::vector<std::vector<uint8_t>>& results) {
-    io::H5File& f = output_.file;
+    io::H5File& f = out_.output.file;
     ForEachRun(frames, [&](int64_t first, int64_t count, size_t begin) {
       std::vector<float> boxes(count * kMaxFaces * 5, 0.f);
       std::vector<int32_t> num(count), size(count * 2), flags(count), status(count);
@@ -350,7 +333,7 @@ class IngestRun {
     plan_box_.assign(n_ * 5, 0.f);
     dist::CoordinateExceptions(comm_, [&] {
       if (!comm_.IsMainRank()) return;
-      io::H5File& f = output_.file;
+      io::H5File& f = out_.output.file;
       const std::vector<float> boxes = f.Read<float>("/detections/boxes", {n_, kMaxFaces, 5});
       const std::vector<int32_t> count = f.ReadVector<int32_t>("/detections/count", n_);
       const std::vector<int32_t> provisional = f.ReadVector<int32_t>("/frames/status", n_);
@@ -434,7 +417,7 @@ class IngestRun {
 
   void CommitLandmarks(const std::vector<int64_t>& frames,
                        const std::vector<std::vector<uint8_t>>& results) {
-    io::H5File& f = output_.file;
+    io::H5File& f = out_.output.file;
     const int S = o_.crop_size;
     ForEachRun(frames, [&](int64_t first, int64_t count, size_t begin) {
       std::vector<int32_t> status(count);
@@ -471,7 +454,7 @@ class IngestRun {
     IngestSummary summary;
     dist::CoordinateExceptions(comm_, [&] {
       if (!comm_.IsMainRank()) return;
-      io::H5File& f = output_.file;
+      io::H5File& f = out_.output.file;
       f.Flush();
       summary = SummaryOf(f.ReadVector<int32_t>("/frames/status", n_),
                           f.ReadVector<int32_t>("/frames/input_flags", n_));
@@ -513,8 +496,8 @@ class IngestRun {
   std::vector<std::unique_ptr<face::FaceAnalyzer>> analyzers_;
   std::vector<int64_t> selected_;
   int64_t n_ = 0;
-  ResumableOutput output_;  // rank 0
-  std::vector<int64_t> pending_detect_, pending_landmarks_;
+  FrameOutput out_;  // pending: the frames still to detect
+  std::vector<int64_t> pending_landmarks_;
   int64_t unreadable_logged_ = 0;
   std::vector<int32_t> plan_status_;  // each frame's status after the subject pass
   std::vector<float> plan_box_;       // [n, 5] the subject's box (source pixels)

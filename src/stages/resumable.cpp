@@ -2,6 +2,7 @@
 
 #include <filesystem>
 
+#include "dist/comm.h"
 #include "util/errors.h"
 #include "util/log.h"
 
@@ -44,6 +45,33 @@ ResumableOutput OpenResumableOutput(const std::string& path, const std::string& 
   out.file.WriteProvenance(provenance);
   out.file.SetAttribute("/", "config_hash", hash);
   return out;
+}
+
+FrameOutput OpenFrameOutput(const StageContext& ctx, const io::Config& resolved,
+                            const std::string& stage, const std::string& out, int64_t num_frames,
+                            const std::function<void(io::H5File* file, bool resumed)>& prepare,
+                            const std::string& mask) {
+  FrameOutput result;
+  int32_t up_to_date = 0;
+  dist::CoordinateExceptions(ctx.comm, [&] {
+    if (!ctx.comm.IsMainRank()) return;
+    result.output = OpenResumableOutput(out, resolved.ToToml(), MakeProvenance(ctx, stage, resolved));
+    if (result.output.up_to_date) {
+      up_to_date = 1;
+      return;
+    }
+    prepare(&result.output.file, result.output.resumed);
+    io::DoneMask done(&result.output.file, num_frames, mask);
+    result.pending = done.Pending();
+    if (result.output.resumed) {
+      FC_INFO("{}: continuing {}: {} of {} frames already done", stage, io::H5File::PartialPath(out),
+              done.NumDone(), num_frames);
+    }
+  });
+  ctx.comm.Broadcast(&up_to_date, sizeof(up_to_date));
+  result.up_to_date = up_to_date != 0;
+  if (result.up_to_date && ctx.comm.IsMainRank()) FC_INFO("{}: {} is up to date", stage, out);
+  return result;
 }
 
 }  // namespace facecap::stages

@@ -10,9 +10,13 @@
 #ifndef FACECAP_STAGES_RESUMABLE_H_
 #define FACECAP_STAGES_RESUMABLE_H_
 
+#include <cstdint>
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "io/hdf5.h"
+#include "stages/stage.h"
 
 namespace facecap::stages {
 
@@ -24,6 +28,22 @@ struct ResumableOutput {
 
 ResumableOutput OpenResumableOutput(const std::string& path, const std::string& config_text,
                                     const io::Provenance& provenance);
+
+// The output of a resumable per-frame stage (frame_loop.h), as every rank learns it.
+struct FrameOutput {
+  ResumableOutput output;        // rank 0: the open file
+  bool up_to_date = false;       // every rank: the final file holds this configuration's result
+  std::vector<int64_t> pending;  // rank 0: the frames not done yet, ascending
+};
+
+// Collective. Rank 0 opens (or continues) `out`, the output of `stage` over `num_frames`
+// frames; for a new or continued file, `prepare(file, resumed)` creates its datasets (and,
+// when not resumed, what is written once), and the done mask `mask` lists the pending frames.
+// Logs that a run continues or that the output is up to date.
+FrameOutput OpenFrameOutput(const StageContext& ctx, const io::Config& resolved,
+                            const std::string& stage, const std::string& out, int64_t num_frames,
+                            const std::function<void(io::H5File* file, bool resumed)>& prepare,
+                            const std::string& mask = "/progress/done");
 
 }  // namespace facecap::stages
 
