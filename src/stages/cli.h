@@ -97,6 +97,13 @@ std::string FlagTextToToml(const std::string& text) {
   }
 }
 
+// An options struct may group its flags in --help: `static HelpSections()` returns pairs
+// (first key of a section, the section's title), in Visit order.
+template <typename Options, typename = void>
+struct HasHelpSections : std::false_type {};
+template <typename Options>
+struct HasHelpSections<Options, std::void_t<decltype(Options::HelpSections())>> : std::true_type {};
+
 // Adds --job, --set and one flag per field of Options to `sub`.
 template <typename Options>
 void AddStageFlags(CLI::App* sub, const std::string& table, StageFlags* flags) {
@@ -107,22 +114,30 @@ void AddStageFlags(CLI::App* sub, const std::string& table, StageFlags* flags) {
   sub->add_option("--set", flags->sets,
                   "override any job-file value: --set " + table + ".key=value (repeatable)");
   Options defaults;
+  std::vector<std::pair<std::string, std::string>> sections;
+  if constexpr (HasHelpSections<Options>::value) sections = Options::HelpSections();
+  std::string section = "Options";
   defaults.Visit([&](const char* key, auto& field, const char* help) {
     const std::string k = key;
+    for (const auto& [first, title] : sections) {
+      if (first == k) section = title;
+    }
     using Field = std::decay_t<decltype(field)>;
     const std::string description = std::string(help) + " (default: " + DefaultText(field) + ")";
     if constexpr (std::is_same_v<Field, bool>) {
       // --name sets true, --no-name sets false.
       sub->add_flag_function(
-          FlagName(k) + ",!--no-" + FlagName(k).substr(2),
-          [flags, k](std::int64_t count) { flags->overrides[k] = count > 0 ? "true" : "false"; },
-          description);
+             FlagName(k) + ",!--no-" + FlagName(k).substr(2),
+             [flags, k](std::int64_t count) { flags->overrides[k] = count > 0 ? "true" : "false"; },
+             description)
+          ->group(section);
       return;
     } else {
       auto* option = sub->add_option_function<std::string>(
           FlagName(k),
           [flags, k](const std::string& text) { flags->overrides[k] = FlagTextToToml<Field>(text); },
           description);
+      option->group(section);
       if constexpr (std::is_arithmetic_v<Field>) {
         constexpr bool kIntegral = std::is_integral_v<Field>;
         option->type_name(kIntegral ? "INT" : "FLOAT");

@@ -96,8 +96,12 @@ struct DeepfakeTrainOptions {
     augment.random_background = 0.5f;
   }
 
-  // The options, by concern: data, schedule and checkpoints, network, losses, augmentation.
-  // The rest of the recipe is fixed (nn::DeepfakeLossOptions and nn::AugmentOptions
+  // --help's sections: data, schedule and checkpoints, network, losses, augmentation.
+  static std::vector<std::pair<std::string, std::string>> HelpSections() {
+    return {{"a", "Data"}, {"out", "Schedule and checkpoints"}, {"size", "Network"},
+            {"learning_rate", "Losses and optimizer"}, {"random_background", "Augmentation"}};
+  }
+  // The options, by concern, in HelpSections' order. The rest of the recipe is fixed (nn::DeepfakeLossOptions and nn::AugmentOptions
   // defaults): L1 + DSSIM reconstruction, adversarial weights 0.02, Adam (0.5, 0.999) with
   // discriminator rate 2e-4, the warp, similarity, flip and colour jitter of domain B.
   template <class V>
