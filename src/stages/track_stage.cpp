@@ -3,6 +3,7 @@
 // for any number of ranks.
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <mutex>
 
 #include "io/hdf5.h"
@@ -161,277 +162,316 @@ struct FrameTarget {
   render::CropView view;      // roll 0 and the targets' camera when there is no crop
 };
 
-void RunTrack(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<TrackOptions>(flags, &ctx, &resolved);
-  const dist::Comm& comm = ctx.comm;
+// One record of a frame's solution in a work unit's bytes (read back by CommitUnits).
+void PutFrameSolution(ByteWriter* w, const rig::RigidPose& p, const Eigen::VectorXf& x, int S,
+                      const track::FrameSummary& summary, int32_t termination) {
+  const float angles[3] = {p.pitch, p.yaw, p.roll};
+  w->PutArray(angles, 3);
+  w->PutArray(p.translation.data(), 3);
+  w->Put<float>(p.scale);
+  w->PutArray(x.data(), S);
+  w->Put<double>(summary.final_cost);
+  w->Put<double>(summary.initial_cost);
+  w->Put<int32_t>(summary.iterations);
+  w->Put<int32_t>(summary.evaluations);
+  w->Put<int32_t>(termination);
+  w->Put<double>(summary.seconds);
+}
 
-  rig::Rig rig;
-  TargetsInfo info;
-  IngestedFrames ingested;
-  const bool crops = !o.frames.empty();
-  dist::CoordinateExceptions(comm, [&] {
-    std::string why;
-    if (!o.Check(&why)) throw InvalidInputError("track: " + why);
-    rig = io::ReadRigFile(o.rig);
-    info = InspectTargets(o.targets, o.targets_dataset, !crops);
-    if (crops) {
-      ingested = IngestedFrames::Read(o.frames);
-      if (ingested.NumFrames() != info.frames) {
-        throw FileIOError(o.frames + " has " + std::to_string(ingested.NumFrames()) + " frames, " +
-                          o.targets + " has " + std::to_string(info.frames) +
-                          ": the targets must translate these frames");
-      }
-      if (rig.landmarks.size() != 68) {
-        throw FileIOError(o.rig + ": tracking crops of footage needs the rig's 68 landmarks");
-      }
-      info.found = ingested.found();
-    } else if ((o.init == "landmarks" || o.tracker.objective == "landmarks") &&
-               info.landmarks.empty()) {
-      throw FileIOError(o.targets + ": init or objective with landmarks needs a landmarks "
-                        "dataset beside " + info.images + " (or name the ingest output with "
-                        "frames)");
-    }
-  });
-  const int64_t frames = o.count > 0 ? std::min<int64_t>(o.count, info.frames) : info.frames;
-  const int S = rig.NumShapes();
-  const int64_t unit_frames = o.init == "previous" ? o.segment_frames : 1;
-  const int64_t units = (frames + unit_frames - 1) / unit_frames;
-  // The camera the track is written in: the source camera of footage, else the targets'.
-  int64_t first_found = 0;
-  while (crops && first_found + 1 < frames && !ingested.Found(first_found)) ++first_found;
-  const render::Camera out_camera = crops ? ingested.SourceCamera(first_found) : info.camera;
-  const float distance = info.distance_cm > 0.f
-                             ? info.distance_cm
-                             : render::FramingDistance(rig, out_camera, crops ? 0.56f : 0.7f);
+// The per-frame datasets of /track in a new or continued output.
+void CreateTrackDatasets(io::H5File* f, int64_t frames, int S) {
+  f->CreateFrames<float>("/track/pose", {3}, frames, 1024, 4);
+  f->SetAttribute("/track/pose", "columns", std::string("pitch, yaw, roll"));
+  f->SetAttribute("/track/pose", "units", std::string("rad"));
+  f->CreateFrames<float>("/track/translation", {3}, frames, 1024, 4);
+  f->SetAttribute("/track/translation", "units", std::string("cm (camera space)"));
+  f->CreateFrames<float>("/track/scale", {}, frames, 1024, 4);
+  f->CreateFrames<float>("/track/weights", {S}, frames, 256, 4);
+  f->CreateFrames<double>("/track/cost", {}, frames, 1024, 4);
+  f->SetAttribute("/track/cost", "meaning",
+                  std::string("final 0.5 |F - T|^2 of the objective at full resolution"));
+  f->CreateFrames<double>("/track/initial_cost", {}, frames, 1024, 4);
+  f->CreateFrames<int32_t>("/track/iterations", {}, frames, 1024, 4);
+  f->CreateFrames<int32_t>("/track/evaluations", {}, frames, 1024, 4);
+  f->CreateFrames<int32_t>("/track/termination", {}, frames, 1024, 4);
+  f->SetAttribute("/track/termination", "codes",
+                  std::string("0 CONVERGENCE, 1 NO_CONVERGENCE, 2 FAILURE, 3 NO_TARGET (no face "
+                              "in the frame: not solved, the previous frame's solution held, "
+                              "or the neutral)"));
+  f->CreateFrames<double>("/track/seconds", {}, frames, 1024, 4);
+  f->SetAttribute("/track/seconds", "meaning", std::string("wall time of the frame's solve"));
+}
 
-  const std::vector<Eigen::Vector3f> seg_colors = track::RigRegionColors(rig);
-  const std::vector<Eigen::Vector3f> model_colors =
-      o.texture == "skin" ? track::SkinRegionColors(rig) : seg_colors;
-  // The landmark term in units of each point's noise that person fit measured for the rig.
-  // The term fits the landmarks a detector found in footage (frames); targets of their own
-  // (rig samples) are tracked without it.
-  track::TrackerOptions tracker_options = o.tracker;
-  if (!crops) tracker_options.landmark_weight = 0.f;
-  if (tracker_options.landmark_weight > 0.f) {
-    LandmarkNoise noise;
-    dist::CoordinateExceptions(comm, [&] { noise = ReadLandmarkNoise(o.rig); });
-    if (!noise.px.empty()) {
-      tracker_options.landmark_point_weights.resize(68);
-      double inner = 0.;
-      for (int l = 0; l < 68; ++l) {
-        const double sigma = noise.AtSize(l, info.width);
-        tracker_options.landmark_point_weights[l] = static_cast<float>(1. / (sigma * sigma));
-        if (l >= 17) inner += sigma * sigma / 51.;
-      }
-      if (comm.IsMainRank()) {
-        FC_INFO("track: the landmark term weighs each point by its inverse squared noise (person "
-                "fit's; {:.3f} px RMS off the jaw at {} pixels)", std::sqrt(inner), info.width);
-      }
-    }
+// The source camera, frame indices, timecodes and frame rate of tracked footage crops.
+void WriteSourceFrames(io::H5File* f, const IngestedFrames& ingested, const std::string& frames_path,
+                       int64_t frames) {
+  f->SetAttribute("/camera/intrinsics", "fov_deg", ingested.fov_deg());
+  f->SetAttribute("/camera/intrinsics", "meaning",
+                  std::string("the source video's camera as assumed by ingest: poses are in "
+                              "its space, landmarks project to source pixels"));
+  f->SetAttribute("/track", "frames", frames_path);
+  std::vector<int64_t> index(frames);
+  std::vector<double> timecode(frames);
+  for (int64_t k = 0; k < frames; ++k) {
+    index[k] = ingested.SourceIndex(k);
+    timecode[k] = ingested.Timecode(k);
   }
-  const track::Tracker tracker(rig, model_colors, tracker_options);
+  f->WriteVector("/track/source_index", index);
+  f->SetAttribute("/track/source_index", "meaning",
+                  std::string("frame index in the source video (or image index)"));
+  f->WriteVector("/track/timecode", timecode);
+  f->SetAttribute("/track/timecode", "units", std::string("seconds from the start of the video"));
+  if (ingested.fps() > 0.) f->SetAttribute("/track", "fps", ingested.fps());
+}
 
-  ResumableOutput output;
-  std::vector<int64_t> pending;
-  int up_to_date = 0;
-  dist::CoordinateExceptions(comm, [&] {
-    if (!comm.IsMainRank()) return;
-    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "track", resolved));
-    if (output.up_to_date) {
-      up_to_date = 1;
+// One track run: the rig, the targets and (for footage crops) the ingest output read on
+// every rank, the solver set up, the output opened on rank 0, and the work units solved.
+class TrackRun {
+ public:
+  TrackRun(const TrackOptions& o, const StageContext& ctx, const io::Config& resolved)
+      : o_(o), ctx_(ctx), resolved_(resolved), comm_(ctx.comm), crops_(!o.frames.empty()) {}
+
+  void Run() {
+    ReadInputs();
+    PlanFrames();
+    tracker_ = std::make_unique<const track::Tracker>(rig_, model_colors_, SolverOptions());
+    if (OpenOutput()) {
+      if (comm_.IsMainRank()) FC_INFO("track: {} is up to date", o_.out);
       return;
     }
-    io::H5File& f = output.file;
-    f.CreateFrames<float>("/track/pose", {3}, frames, 1024, 4);
-    f.SetAttribute("/track/pose", "columns", std::string("pitch, yaw, roll"));
-    f.SetAttribute("/track/pose", "units", std::string("rad"));
-    f.CreateFrames<float>("/track/translation", {3}, frames, 1024, 4);
-    f.SetAttribute("/track/translation", "units", std::string("cm (camera space)"));
-    f.CreateFrames<float>("/track/scale", {}, frames, 1024, 4);
-    f.CreateFrames<float>("/track/weights", {S}, frames, 256, 4);
-    f.CreateFrames<double>("/track/cost", {}, frames, 1024, 4);
-    f.SetAttribute("/track/cost", "meaning",
-                   std::string("final 0.5 |F - T|^2 of the objective at full resolution"));
-    f.CreateFrames<double>("/track/initial_cost", {}, frames, 1024, 4);
-    f.CreateFrames<int32_t>("/track/iterations", {}, frames, 1024, 4);
-    f.CreateFrames<int32_t>("/track/evaluations", {}, frames, 1024, 4);
-    f.CreateFrames<int32_t>("/track/termination", {}, frames, 1024, 4);
-    f.SetAttribute("/track/termination", "codes",
-                   std::string("0 CONVERGENCE, 1 NO_CONVERGENCE, 2 FAILURE, 3 NO_TARGET (no face "
-                               "in the frame: not solved, the previous frame's solution held, "
-                               "or the neutral)"));
-    f.CreateFrames<double>("/track/seconds", {}, frames, 1024, 4);
-    f.SetAttribute("/track/seconds", "meaning", std::string("wall time of the frame's solve"));
-    if (!output.resumed) {
-      std::vector<std::string> names;
-      for (const auto& s : rig.shapes) names.push_back(s.name);
-      f.WriteStrings("/track/shape_names", names);
-      const render::Camera& c = out_camera;
-      f.WriteVector<double>("/camera/intrinsics", {c.fx, c.fy, c.cx, c.cy});
-      f.SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
-      f.SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(distance));
-      f.SetAttribute("/camera/intrinsics", "width", static_cast<double>(c.width));
-      f.SetAttribute("/camera/intrinsics", "height", static_cast<double>(c.height));
-      f.SetAttribute("/track", "targets", o.targets);
-      f.SetAttribute("/track", "targets_dataset", info.images);
-      f.SetAttribute("/track", "rig", o.rig);
-      if (crops) {
-        f.SetAttribute("/camera/intrinsics", "fov_deg", ingested.fov_deg());
-        f.SetAttribute("/camera/intrinsics", "meaning",
-                       std::string("the source video's camera as assumed by ingest: poses are in "
-                                   "its space, landmarks project to source pixels"));
-        f.SetAttribute("/track", "frames", o.frames);
-        std::vector<int64_t> index(frames);
-        std::vector<double> timecode(frames);
-        for (int64_t k = 0; k < frames; ++k) {
-          index[k] = ingested.SourceIndex(k);
-          timecode[k] = ingested.Timecode(k);
-        }
-        f.WriteVector("/track/source_index", index);
-        f.SetAttribute("/track/source_index", "meaning",
-                       std::string("frame index in the source video (or image index)"));
-        f.WriteVector("/track/timecode", timecode);
-        f.SetAttribute("/track/timecode", "units", std::string("seconds from the start of the video"));
-        if (ingested.fps() > 0.) f.SetAttribute("/track", "fps", ingested.fps());
-      } else if (io::H5File::IsHdf5(o.targets)) {
-        io::H5File t = io::H5File::OpenRead(o.targets);
-        if (t.HasAttribute("/camera/intrinsics", "fps")) {
-          f.SetAttribute("/track", "fps", t.GetDoubleAttribute("/camera/intrinsics", "fps"));
-        }
-      }
-    }
-    io::DoneMask mask(&f, units);
-    pending = mask.Pending();
-    if (output.resumed) {
-      FC_INFO("track: continuing {}: {} of {} work units already done",
-              io::H5File::PartialPath(o.out), mask.NumDone(), units);
-    }
-  });
-  comm.Broadcast(&up_to_date, sizeof(up_to_date));
-  if (up_to_date) {
-    if (comm.IsMainRank()) FC_INFO("track: {} is up to date", o.out);
-    return;
+    // Every rank reads its targets; HDF5 reads are serialized within the rank.
+    dist::CoordinateExceptions(comm_, [&] { targets_file_ = io::H5File::OpenRead(o_.targets); });
+    neutral_weights_ = Eigen::VectorXf::Zero(S_);
+    neutral_pose_ = NeutralPoseIn(crops_ ? out_camera_ : info_.camera);
+    FrameLoopOptions loop;
+    loop.what = "track";
+    loop.batch = o_.batch;
+    loop.dynamic = true;
+    loop.threads = ThreadsPerRank(o_.threads);
+    RunFrameLoop(
+        comm_, pending_, units_, loop, [&](int64_t unit, int /*thread*/) { return SolveUnit(unit); },
+        [&](const std::vector<int64_t>& done_units, const std::vector<std::vector<uint8_t>>& results) {
+          CommitUnits(done_units, results);
+        });
+    dist::CoordinateExceptions(comm_, [&] {
+      if (comm_.IsMainRank()) output_.file.Commit();
+    });
+    if (comm_.IsMainRank()) FC_INFO("track: {} frames -> {}", frames_, o_.out);
   }
 
-  // Every rank reads its targets; HDF5 reads are serialized within the rank.
-  io::H5File targets_file;
-  dist::CoordinateExceptions(comm, [&] { targets_file = io::H5File::OpenRead(o.targets); });
-  std::mutex read_mutex;
-  const int W = info.width, H = info.height;
-  auto read_target = [&](int64_t frame) {
+ private:
+  // The options checked, the rig, the targets' layout and the ingest output read (every rank).
+  void ReadInputs() {
+    dist::CoordinateExceptions(comm_, [&] {
+      std::string why;
+      if (!o_.Check(&why)) throw InvalidInputError("track: " + why);
+      rig_ = io::ReadRigFile(o_.rig);
+      info_ = InspectTargets(o_.targets, o_.targets_dataset, !crops_);
+      if (crops_) {
+        ingested_ = IngestedFrames::Read(o_.frames);
+        if (ingested_.NumFrames() != info_.frames) {
+          throw FileIOError(o_.frames + " has " + std::to_string(ingested_.NumFrames()) + " frames, " +
+                            o_.targets + " has " + std::to_string(info_.frames) +
+                            ": the targets must translate these frames");
+        }
+        if (rig_.landmarks.size() != 68) {
+          throw FileIOError(o_.rig + ": tracking crops of footage needs the rig's 68 landmarks");
+        }
+        info_.found = ingested_.found();
+      } else if ((o_.init == "landmarks" || o_.tracker.objective == "landmarks") &&
+                 info_.landmarks.empty()) {
+        throw FileIOError(o_.targets + ": init or objective with landmarks needs a landmarks "
+                          "dataset beside " + info_.images + " (or name the ingest output with "
+                          "frames)");
+      }
+    });
+  }
+
+  // Frames, work units, the output camera, the framing distance and the region colours.
+  void PlanFrames() {
+    frames_ = o_.count > 0 ? std::min<int64_t>(o_.count, info_.frames) : info_.frames;
+    S_ = rig_.NumShapes();
+    unit_frames_ = o_.init == "previous" ? o_.segment_frames : 1;
+    units_ = (frames_ + unit_frames_ - 1) / unit_frames_;
+    // The camera the track is written in: the source camera of footage, else the targets'.
+    int64_t first_found = 0;
+    while (crops_ && first_found + 1 < frames_ && !ingested_.Found(first_found)) ++first_found;
+    out_camera_ = crops_ ? ingested_.SourceCamera(first_found) : info_.camera;
+    distance_ = info_.distance_cm > 0.f
+                    ? info_.distance_cm
+                    : render::FramingDistance(rig_, out_camera_, crops_ ? 0.56f : 0.7f);
+    seg_colors_ = track::RigRegionColors(rig_);
+    model_colors_ = o_.texture == "skin" ? track::SkinRegionColors(rig_) : seg_colors_;
+  }
+
+  // The solver's options. The landmark term in units of each point's noise that person fit
+  // measured for the rig; the term fits the landmarks a detector found in footage (frames);
+  // targets of their own (rig samples) are tracked without it.
+  track::TrackerOptions SolverOptions() {
+    track::TrackerOptions tracker_options = o_.tracker;
+    if (!crops_) tracker_options.landmark_weight = 0.f;
+    if (tracker_options.landmark_weight <= 0.f) return tracker_options;
+    LandmarkNoise noise;
+    dist::CoordinateExceptions(comm_, [&] { noise = ReadLandmarkNoise(o_.rig); });
+    if (noise.px.empty()) return tracker_options;
+    tracker_options.landmark_point_weights.resize(68);
+    double inner = 0.;
+    for (int l = 0; l < 68; ++l) {
+      const double sigma = noise.AtSize(l, info_.width);
+      tracker_options.landmark_point_weights[l] = static_cast<float>(1. / (sigma * sigma));
+      if (l >= 17) inner += sigma * sigma / 51.;
+    }
+    if (comm_.IsMainRank()) {
+      FC_INFO("track: the landmark term weighs each point by its inverse squared noise (person "
+              "fit's; {:.3f} px RMS off the jaw at {} pixels)", std::sqrt(inner), info_.width);
+    }
+    return tracker_options;
+  }
+
+  // Rank 0 opens (or continues) the output; true on every rank when it is up to date.
+  bool OpenOutput() {
+    int up_to_date = 0;
+    dist::CoordinateExceptions(comm_, [&] {
+      if (!comm_.IsMainRank()) return;
+      output_ = OpenResumableOutput(o_.out, resolved_.ToToml(), MakeProvenance(ctx_, "track", resolved_));
+      if (output_.up_to_date) {
+        up_to_date = 1;
+        return;
+      }
+      io::H5File& f = output_.file;
+      CreateTrackDatasets(&f, frames_, S_);
+      if (!output_.resumed) WriteTrackRecords(&f);
+      io::DoneMask mask(&f, units_);
+      pending_ = mask.Pending();
+      if (output_.resumed) {
+        FC_INFO("track: continuing {}: {} of {} work units already done",
+                io::H5File::PartialPath(o_.out), mask.NumDone(), units_);
+      }
+    });
+    comm_.Broadcast(&up_to_date, sizeof(up_to_date));
+    return up_to_date != 0;
+  }
+
+  // The shape names, the camera and where the targets come from (a new output).
+  void WriteTrackRecords(io::H5File* f) {
+    std::vector<std::string> names;
+    for (const auto& s : rig_.shapes) names.push_back(s.name);
+    f->WriteStrings("/track/shape_names", names);
+    const render::Camera& c = out_camera_;
+    f->WriteVector<double>("/camera/intrinsics", {c.fx, c.fy, c.cx, c.cy});
+    f->SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
+    f->SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(distance_));
+    f->SetAttribute("/camera/intrinsics", "width", static_cast<double>(c.width));
+    f->SetAttribute("/camera/intrinsics", "height", static_cast<double>(c.height));
+    f->SetAttribute("/track", "targets", o_.targets);
+    f->SetAttribute("/track", "targets_dataset", info_.images);
+    f->SetAttribute("/track", "rig", o_.rig);
+    if (crops_) {
+      WriteSourceFrames(f, ingested_, o_.frames, frames_);
+    } else if (io::H5File::IsHdf5(o_.targets)) {
+      io::H5File t = io::H5File::OpenRead(o_.targets);
+      if (t.HasAttribute("/camera/intrinsics", "fps")) {
+        f->SetAttribute("/track", "fps", t.GetDoubleAttribute("/camera/intrinsics", "fps"));
+      }
+    }
+  }
+
+  // A frame's target image (recoloured for the skin texture), landmarks and camera.
+  FrameTarget ReadTarget(int64_t frame) {
+    const int W = info_.width, H = info_.height;
     FrameTarget ft;
     track::TrackTarget& t = ft.target;
-    t.camera = info.camera;
-    ft.view.camera = info.camera;
+    t.camera = info_.camera;
+    ft.view.camera = info_.camera;
     Image8 image(W, H, 3);
     Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor> lm;
     std::vector<uint8_t> visible;
     {
-      std::lock_guard<std::mutex> lock(read_mutex);
-      targets_file.ReadFrames<uint8_t>(info.images, frame, 1, image.data.data());
-      if (!crops && !info.landmarks.empty()) {
-        const io::Shape ls = targets_file.DatasetShape(info.landmarks);
+      std::lock_guard<std::mutex> lock(read_mutex_);
+      targets_file_.ReadFrames<uint8_t>(info_.images, frame, 1, image.data.data());
+      if (!crops_ && !info_.landmarks.empty()) {
+        const io::Shape ls = targets_file_.DatasetShape(info_.landmarks);
         lm.resize(ls[1], 2);
-        targets_file.ReadFrames<float>(info.landmarks, frame, 1, lm.data());
-        if (!info.visible.empty()) {
+        targets_file_.ReadFrames<float>(info_.landmarks, frame, 1, lm.data());
+        if (!info_.visible.empty()) {
           visible.resize(ls[1]);
-          targets_file.ReadFrames<uint8_t>(info.visible, frame, 1, visible.data());
+          targets_file_.ReadFrames<uint8_t>(info_.visible, frame, 1, visible.data());
         }
       }
     }
-    if (crops) {
-      if (W != H) throw FileIOError(o.targets + ": translations of crops must be square");
-      ft.view = ingested.CropCamera(frame, W);
+    if (crops_) {
+      if (W != H) throw FileIOError(o_.targets + ": translations of crops must be square");
+      ft.view = ingested_.CropCamera(frame, W);
       t.camera = ft.view.camera;
-      lm = ingested.CropLandmarks(frame, W);
+      lm = ingested_.CropLandmarks(frame, W);
     }
     t.image = track::ToFloatImage(image);
-    if (o.texture == "skin") {
-      t.image = track::RecolorSegmentation(t.image, seg_colors, model_colors,
-                                           o.tracker.soft.background_color);
+    if (o_.texture == "skin") {
+      t.image = track::RecolorSegmentation(t.image, seg_colors_, model_colors_,
+                                           o_.tracker.soft.background_color);
     }
     t.landmarks = lm;
     t.landmark_visible = visible;
     return ft;
-  };
+  }
 
-  const Eigen::VectorXf neutral_weights = Eigen::VectorXf::Zero(S);
-  // The neutral frontal head, framed in the middle of the target's image.
-  auto neutral_pose_in = [&](const render::Camera& camera) {
-    const float d = crops ? render::FramingDistance(rig, camera, 0.56f) : distance;
-    rig::RigidPose p = render::FramedPose(rig, d, 0.f, 0.f);
+  // The neutral frontal head, framed in the middle of the camera's image.
+  rig::RigidPose NeutralPoseIn(const render::Camera& camera) const {
+    const float d = crops_ ? render::FramingDistance(rig_, camera, 0.56f) : distance_;
+    rig::RigidPose p = render::FramedPose(rig_, d, 0.f, 0.f);
     p.translation += camera.RayDirection(0.5f * camera.width, 0.5f * camera.height) * d -
                      Eigen::Vector3f(0.f, 0.f, -d);
     return p;
-  };
-  const rig::RigidPose neutral_pose = neutral_pose_in(crops ? out_camera : info.camera);
-  const int threads = ThreadsPerRank(o.threads);
-  FrameLoopOptions loop;
-  loop.what = "track";
-  loop.batch = o.batch;
-  loop.dynamic = true;
-  loop.threads = threads;
-  auto compute = [&](int64_t unit, int /*thread*/) {
+  }
+
+  // Solves the frames of one work unit (a segment when init = previous), in order.
+  std::vector<uint8_t> SolveUnit(int64_t unit) {
     ByteWriter w;
-    const int64_t first = unit * unit_frames;
-    const int64_t last = std::min(frames, first + unit_frames);
+    const int64_t first = unit * unit_frames_;
+    const int64_t last = std::min(frames_, first + unit_frames_);
     // The solution so far, in the output camera; none before the segment's first face.
-    rig::RigidPose pose = neutral_pose;
-    Eigen::VectorXf weights = neutral_weights;
+    rig::RigidPose pose = neutral_pose_;
+    Eigen::VectorXf weights = neutral_weights_;
     bool have_previous = false;
-    auto put = [&](const rig::RigidPose& p, const Eigen::VectorXf& x,
-                   const track::FrameSummary& summary, int32_t termination) {
-      const float angles[3] = {p.pitch, p.yaw, p.roll};
-      w.PutArray(angles, 3);
-      w.PutArray(p.translation.data(), 3);
-      w.Put<float>(p.scale);
-      w.PutArray(x.data(), S);
-      w.Put<double>(summary.final_cost);
-      w.Put<double>(summary.initial_cost);
-      w.Put<int32_t>(summary.iterations);
-      w.Put<int32_t>(summary.evaluations);
-      w.Put<int32_t>(termination);
-      w.Put<double>(summary.seconds);
-    };
     for (int64_t frame = first; frame < last; ++frame) {
-      if (!info.found.empty() && !info.found[frame]) {
+      if (!info_.found.empty() && !info_.found[frame]) {
         // No face here: nothing to solve. The solution so far is held (the neutral when the
         // frames are independent), so exports stay continuous and the next frame of a
         // sequential segment starts from the last face seen, not from a fit to an empty image.
-        if (o.init != "previous") {
-          pose = neutral_pose;
-          weights = neutral_weights;
+        if (o_.init != "previous") {
+          pose = neutral_pose_;
+          weights = neutral_weights_;
         }
         track::FrameSummary none;
         none.final_cost = none.initial_cost = std::nan("");
-        put(pose, weights, none, kNoTarget);
+        PutFrameSolution(&w, pose, weights, S_, none, kNoTarget);
         continue;
       }
-      const FrameTarget ft = read_target(frame);
+      const FrameTarget ft = ReadTarget(frame);
       rig::RigidPose start = PoseInCrop(pose, ft.view);
-      const bool from_landmarks = o.init == "landmarks" || (crops && !have_previous);
-      if (o.init != "previous" || !have_previous) {
-        start = crops ? neutral_pose_in(ft.target.camera) : neutral_pose;
-        weights = neutral_weights;
+      const bool from_landmarks = o_.init == "landmarks" || (crops_ && !have_previous);
+      if (o_.init != "previous" || !have_previous) {
+        start = crops_ ? NeutralPoseIn(ft.target.camera) : neutral_pose_;
+        weights = neutral_weights_;
       }
-      if (from_landmarks) start = tracker.PoseFromLandmarks(ft.target, start, neutral_weights);
-      const track::TrackResult r = tracker.Solve(ft.target, start, weights);
+      if (from_landmarks) start = tracker_->PoseFromLandmarks(ft.target, start, neutral_weights_);
+      const track::TrackResult r = tracker_->Solve(ft.target, start, weights);
       pose = PoseInSource(r.pose, ft.view);
       weights = r.weights;
       have_previous = true;
-      put(pose, weights, r.summary, static_cast<int32_t>(r.summary.termination));
+      PutFrameSolution(&w, pose, weights, S_, r.summary, static_cast<int32_t>(r.summary.termination));
     }
     return std::move(w.bytes());
-  };
-  auto commit = [&](const std::vector<int64_t>& done_units,
-                    const std::vector<std::vector<uint8_t>>& results) {
-    io::H5File& f = output.file;
+  }
+
+  // Rank 0: the solved units' frames into the output, then the units marked done.
+  void CommitUnits(const std::vector<int64_t>& done_units,
+                   const std::vector<std::vector<uint8_t>>& results) {
+    io::H5File& f = output_.file;
     for (size_t k = 0; k < done_units.size(); ++k) {
       ByteReader r(results[k]);
-      const int64_t first = done_units[k] * unit_frames;
-      const int64_t last = std::min(frames, first + unit_frames);
+      const int64_t first = done_units[k] * unit_frames_;
+      const int64_t last = std::min(frames_, first + unit_frames_);
       for (int64_t frame = first; frame < last; ++frame) {
         const auto angles = r.GetVector<float>();
         const auto translation = r.GetVector<float>();
@@ -453,14 +493,37 @@ void RunTrack(const StageFlags& flags, AppState* state) {
         f.WriteFrames<double>("/track/seconds", frame, 1, &seconds);
       }
     }
-    io::DoneMask mask(&f, units);
+    io::DoneMask mask(&f, units_);
     mask.MarkDone(done_units);
-  };
-  RunFrameLoop(comm, pending, units, loop, compute, commit);
-  dist::CoordinateExceptions(comm, [&] {
-    if (comm.IsMainRank()) output.file.Commit();
-  });
-  if (comm.IsMainRank()) FC_INFO("track: {} frames -> {}", frames, o.out);
+  }
+
+  const TrackOptions& o_;
+  const StageContext& ctx_;
+  const io::Config& resolved_;
+  const dist::Comm& comm_;
+  const bool crops_;  // the targets translate the crops of an ingest output (frames)
+  rig::Rig rig_;
+  TargetsInfo info_;
+  IngestedFrames ingested_;
+  int64_t frames_ = 0, unit_frames_ = 1, units_ = 0;
+  int S_ = 0;
+  render::Camera out_camera_;  // the camera the track is written in
+  float distance_ = 0.f;
+  std::vector<Eigen::Vector3f> seg_colors_, model_colors_;
+  std::unique_ptr<const track::Tracker> tracker_;
+  ResumableOutput output_;  // rank 0
+  std::vector<int64_t> pending_;
+  io::H5File targets_file_;
+  std::mutex read_mutex_;
+  Eigen::VectorXf neutral_weights_;
+  rig::RigidPose neutral_pose_;
+};
+
+void RunTrack(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<TrackOptions>(flags, &ctx, &resolved);
+  TrackRun(o, ctx, resolved).Run();
 }
 
 }  // namespace
