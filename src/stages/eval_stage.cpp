@@ -85,75 +85,19 @@ struct TrackErrors {
   int64_t active_count = 0;
 };
 
-void RunEvalTrack(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<EvalTrackOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
-  std::string why;
-  if (!o.Check(&why)) throw InvalidInputError("eval track: " + why);
+using RowMatrixF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-  io::H5File truth = io::H5File::OpenRead(o.truth);
-  io::H5File track = io::H5File::OpenRead(o.track);
-  rig::Rig rig;
-  if (!o.truth_rig.empty()) {
-    rig = io::ReadRigFile(o.truth_rig);
-  } else if (truth.Exists("/rig/neutral")) {
-    rig = io::ReadRig(truth);
-  } else if (!o.rig.empty()) {
-    rig = io::ReadRigFile(o.rig);  // synth samples: rendered with the rig that was tracked
-  } else {
-    throw InvalidInputError("eval track: " + o.truth + " has no /rig; pass --truth-rig");
-  }
-  const rig::Rig tracked_rig = o.rig.empty() ? rig : io::ReadRigFile(o.rig);
-  if (tracked_rig.NumVertices() != rig.NumVertices() ||
-      tracked_rig.landmarks.size() != rig.landmarks.size()) {
-    throw FileIOError(o.rig + ": not the truth's topology (" +
-                      std::to_string(tracked_rig.NumVertices()) + " vertices, " +
-                      std::to_string(rig.NumVertices()) + " in the truth)");
-  }
-  // Truth layout: a clip (/frames) or synth samples (/samples).
-  const bool clip = truth.Exists("/frames/weights");
-  const std::string group = clip ? "/frames" : "/samples";
-  if (!truth.Exists(group + "/weights") || !truth.Exists(group + "/pose")) {
-    throw FileIOError(o.truth + ": no " + group + "/weights and " + group + "/pose");
-  }
-  const int S = rig.NumShapes();
-  std::vector<std::string> truth_names;
-  for (const auto& s : rig.shapes) truth_names.push_back(s.name);
-  if (truth.Exists(group + "/shape_names")) truth_names = truth.ReadStrings(group + "/shape_names");
-  const int64_t truth_frames = truth.NumFrames(group + "/weights");
-  truth.CheckShape(group + "/weights", {truth_frames, static_cast<int64_t>(truth_names.size())});
-  // Column of each rig shape in the truth (by name); the track's poses and weights in the
-  // tracked rig's order come from TrackedRig.
-  std::vector<int> truth_col(S, -1);
-  for (int s = 0; s < S; ++s) {
-    for (size_t k = 0; k < truth_names.size(); ++k) {
-      if (truth_names[k] == rig.shapes[s].name) truth_col[s] = static_cast<int>(k);
-    }
-  }
-  const TrackedRig tracked(o.track, tracked_rig);
-  const int64_t frames = tracked.NumFrames();
-  // The truth row of each tracked frame: its source frame for a track of footage crops.
-  auto truth_row = [&](int64_t f) { return tracked.InSourceCamera() ? tracked.SourceIndex(f) : f; };
-  for (int64_t f = 0; f < frames; ++f) {
-    if (truth_row(f) < 0 || truth_row(f) >= truth_frames) {
-      throw FileIOError(o.track + ": frame " + std::to_string(f) + " is source frame " +
-                        std::to_string(truth_row(f)) + ", but " + o.truth + " has " +
-                        std::to_string(truth_frames) + " frames");
-    }
-  }
-  const auto tw = truth.ReadMatrix<float>(group + "/weights");
-  truth.CheckShape(group + "/pose", {truth_frames, 3});
-  const auto tp = truth.ReadMatrix<float>(group + "/pose");
-  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> tt;
-  if (truth.Exists(group + "/translation")) {
-    truth.CheckShape(group + "/translation", {truth_frames, 3});
-    tt = truth.ReadMatrix<float>(group + "/translation");
-  }
-  const std::vector<double> seconds = track.ReadVector<double>("/track/seconds", frames);
-  const std::vector<double> cost = track.ReadVector<double>("/track/cost", frames);
-  const std::vector<int32_t> termination = track.ReadVector<int32_t>("/track/termination", frames);
+// The rig of the truth: truth_rig, the truth file's /rig, or the rig that was tracked.
+rig::Rig ReadTruthRig(const EvalTrackOptions& o, const io::H5File& truth) {
+  if (!o.truth_rig.empty()) return io::ReadRigFile(o.truth_rig);
+  if (truth.Exists("/rig/neutral")) return io::ReadRig(truth);
+  if (!o.rig.empty()) return io::ReadRigFile(o.rig);  // synth samples: rendered with the rig that was tracked
+  throw InvalidInputError("eval track: " + o.truth + " has no /rig; pass --truth-rig");
+}
+
+// The truth's camera: /camera/intrinsics, its image size from the attributes or the
+// principal point.
+render::Camera TruthCamera(const io::H5File& truth) {
   const std::vector<double> k = truth.ReadVector<double>("/camera/intrinsics", 4);
   render::Camera camera;
   camera.fx = static_cast<float>(k[0]);
@@ -166,112 +110,249 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
     camera.width = static_cast<int>(truth.GetDoubleAttribute("/camera/intrinsics", "width"));
     camera.height = static_cast<int>(truth.GetDoubleAttribute("/camera/intrinsics", "height"));
   }
-  // The tracked rig is projected with the tracking camera, scaled to the truth's images.
-  const render::Camera tracked_camera =
-      tracked.HasCameraWidth() ? tracked.CameraForWidth(camera.width, camera.height) : camera;
-  float distance = 0.f;
-  if (truth.HasAttribute("/camera/intrinsics", "distance_cm")) {
-    distance = static_cast<float>(truth.GetDoubleAttribute("/camera/intrinsics", "distance_cm"));
-  }
-  if (tt.rows() == 0 && distance <= 0.f) {
-    throw FileIOError(o.truth + ": no " + group + "/translation and no distance_cm on /camera/intrinsics");
-  }
+  return camera;
+}
 
-  const rig::RigEvaluator evaluator(rig), tracked_evaluator(tracked_rig);
-  const int L = static_cast<int>(rig.landmarks.size());
-  const bool has_eyes = L == 68;
-  // The solved rows, and the neutral face's (every weight 0): what solving no expression at
-  // all scores on this clip, the reference every figure has to beat.
+// What eval track reads of the truth file.
+struct TrackTruth {
+  std::string group;        // /frames (a clip) or /samples
+  int64_t frames = 0;
+  std::vector<int> col;     // column of each rig shape in the truth's weights (-1: none)
+  RowMatrixF weights, pose, translation;  // translation: empty when the truth has none
+  render::Camera camera;
+  float distance = 0.f;     // framing distance (0: none recorded)
+};
+
+// The truth's layout (a clip or synth samples), its frame count and the column of each rig
+// shape in its weights (by name).
+TrackTruth ReadTruthLayout(const EvalTrackOptions& o, const io::H5File& truth, const rig::Rig& rig) {
+  TrackTruth t;
+  const bool clip = truth.Exists("/frames/weights");
+  t.group = clip ? "/frames" : "/samples";
+  const std::string& group = t.group;
+  if (!truth.Exists(group + "/weights") || !truth.Exists(group + "/pose")) {
+    throw FileIOError(o.truth + ": no " + group + "/weights and " + group + "/pose");
+  }
+  const int S = rig.NumShapes();
+  std::vector<std::string> truth_names;
+  for (const auto& s : rig.shapes) truth_names.push_back(s.name);
+  if (truth.Exists(group + "/shape_names")) truth_names = truth.ReadStrings(group + "/shape_names");
+  t.frames = truth.NumFrames(group + "/weights");
+  truth.CheckShape(group + "/weights", {t.frames, static_cast<int64_t>(truth_names.size())});
+  t.col.assign(S, -1);
+  for (int s = 0; s < S; ++s) {
+    for (size_t k = 0; k < truth_names.size(); ++k) {
+      if (truth_names[k] == rig.shapes[s].name) t.col[s] = static_cast<int>(k);
+    }
+  }
+  return t;
+}
+
+// The truth row of each tracked frame: its source frame for a track of footage crops.
+int64_t TruthRow(const TrackedRig& tracked, int64_t f) {
+  return tracked.InSourceCamera() ? tracked.SourceIndex(f) : f;
+}
+
+// The truth's poses, translations, weights and camera, once every tracked frame is known to
+// have its truth row.
+void ReadTruthFrames(const EvalTrackOptions& o, const io::H5File& truth, const TrackedRig& tracked,
+                     TrackTruth* t) {
+  const std::string& group = t->group;
+  for (int64_t f = 0; f < tracked.NumFrames(); ++f) {
+    if (TruthRow(tracked, f) < 0 || TruthRow(tracked, f) >= t->frames) {
+      throw FileIOError(o.track + ": frame " + std::to_string(f) + " is source frame " +
+                        std::to_string(TruthRow(tracked, f)) + ", but " + o.truth + " has " +
+                        std::to_string(t->frames) + " frames");
+    }
+  }
+  t->weights = truth.ReadMatrix<float>(group + "/weights");
+  truth.CheckShape(group + "/pose", {t->frames, 3});
+  t->pose = truth.ReadMatrix<float>(group + "/pose");
+  if (truth.Exists(group + "/translation")) {
+    truth.CheckShape(group + "/translation", {t->frames, 3});
+    t->translation = truth.ReadMatrix<float>(group + "/translation");
+  }
+}
+
+// The solve records of a track: time, final cost and termination per frame.
+struct TrackSolves {
+  std::vector<double> seconds, cost;
+  std::vector<int32_t> termination;
+};
+
+// The metrics of the scored frames: the solved rows and the neutral face's (every weight 0),
+// what solving no expression at all scores on this clip, the reference every figure has to
+// beat.
+struct TrackScores {
   TrackErrors err, neutral;
-  std::vector<double> per_shape(S, 0.);
+  std::vector<double> per_shape;
   std::vector<double> pose_errors;
   // Each scored frame's index, pose error, weight MAE and landmark NME (per_frame).
   std::vector<std::array<double, 4>> frame_errors;
-  rig::Vertices truth_posed, solved_posed, truth_shape, solved_shape;
-  const Eigen::VectorXf zero = Eigen::VectorXf::Zero(S);
-  const double iod3_neutral = rig::InterOcularDistance(rig, rig.neutral);
-  // Frames the tracker had no face to solve (/track/termination 3) are not scored.
   int64_t scored = 0;
-  for (int64_t f = 0; f < frames; ++f) {
-    if (termination[f] == 3) continue;
-    ++scored;
-    const int64_t t = truth_row(f);
+};
+
+// Scores the tracked frames against the truth, frame by frame.
+class TrackScorer {
+ public:
+  TrackScorer(const rig::Rig& rig, const rig::Rig& tracked_rig, const TrackTruth& truth,
+              const render::Camera& tracked_camera)
+      : rig_(rig), tracked_rig_(tracked_rig), truth_(truth), tracked_camera_(tracked_camera),
+        evaluator_(rig), tracked_evaluator_(tracked_rig), S_(rig.NumShapes()),
+        L_(static_cast<int>(rig.landmarks.size())),
+        iod3_neutral_(rig::InterOcularDistance(rig, rig.neutral)) {
+    scores_.per_shape.assign(S_, 0.);
+  }
+
+  bool HasEyes() const { return L_ == 68; }
+  const TrackScores& scores() const { return scores_; }
+
+  // Frame f of the track, whose truth is row t.
+  void Score(int64_t f, int64_t t, const rig::RigidPose& solved, const Eigen::VectorXf& ws) {
+    TrackErrors& err = scores_.err;
+    ++scores_.scored;
+    const rig::RigidPose truth_pose = TruthPose(t);
+    Eigen::VectorXf wt = Eigen::VectorXf::Zero(S_);
+    const double frame_weight_err = ScoreWeights(t, ws, &wt);
+    err.weights += frame_weight_err;
+    const double pe = RotationAngleDeg(truth_pose, solved);
+    scores_.frame_errors.push_back({static_cast<double>(f), pe, frame_weight_err, std::nan("")});
+    scores_.pose_errors.push_back(pe);
+    err.pose += pe;
+    err.translation += (truth_pose.translation - solved.translation).norm();
+    ScoreExpression(wt, ws);
+    evaluator_.EvaluatePosed(truth_pose, wt, &truth_posed_);
+    tracked_evaluator_.EvaluatePosed(solved, ws, &solved_posed_);
+    if (HasEyes()) ScoreLandmarks();
+  }
+
+ private:
+  rig::RigidPose TruthPose(int64_t t) const {
+    const RowMatrixF& tp = truth_.pose;
     rig::RigidPose truth_pose;
-    if (tt.rows() > 0) {
+    if (truth_.translation.rows() > 0) {
       truth_pose.pitch = tp(t, 0);
       truth_pose.yaw = tp(t, 1);
       truth_pose.roll = tp.cols() > 2 ? tp(t, 2) : 0.f;
-      truth_pose.translation = tt.row(t).transpose();
+      truth_pose.translation = truth_.translation.row(t).transpose();
     } else {
-      truth_pose = render::FramedPose(rig, distance, tp(t, 0), tp(t, 1),
+      truth_pose = render::FramedPose(rig_, truth_.distance, tp(t, 0), tp(t, 1),
                                       tp.cols() > 2 ? tp(t, 2) : 0.f);
     }
-    const rig::RigidPose solved = tracked.Pose(f);
-    const Eigen::VectorXf ws = tracked.Weights(f);
-    Eigen::VectorXf wt = Eigen::VectorXf::Zero(S);
+    return truth_pose;
+  }
+
+  // The truth's weights of row t into *wt; the per-shape and active-weight errors summed;
+  // returns the frame's weight MAE.
+  double ScoreWeights(int64_t t, const Eigen::VectorXf& ws, Eigen::VectorXf* wt) {
     double frame_weight_err = 0.;
-    for (int s = 0; s < S; ++s) {
-      if (truth_col[s] >= 0) wt[s] = tw(t, truth_col[s]);
-      const double e = std::abs(wt[s] - ws[s]);
-      per_shape[s] += e;
-      frame_weight_err += e / S;
-      neutral.weights += std::abs(wt[s]) / S;
-      if (wt[s] > kActiveWeight) {
-        err.active += e;
-        neutral.active += wt[s];
-        ++err.active_count;
+    for (int s = 0; s < S_; ++s) {
+      if (truth_.col[s] >= 0) (*wt)[s] = truth_.weights(t, truth_.col[s]);
+      const double e = std::abs((*wt)[s] - ws[s]);
+      scores_.per_shape[s] += e;
+      frame_weight_err += e / S_;
+      scores_.neutral.weights += std::abs((*wt)[s]) / S_;
+      if ((*wt)[s] > kActiveWeight) {
+        scores_.err.active += e;
+        scores_.neutral.active += (*wt)[s];
+        ++scores_.err.active_count;
       }
     }
-    err.weights += frame_weight_err;
-    const double pe = RotationAngleDeg(truth_pose, solved);
-    frame_errors.push_back({static_cast<double>(f), pe, frame_weight_err, std::nan("")});
-    pose_errors.push_back(pe);
-    err.pose += pe;
-    err.translation += (truth_pose.translation - solved.translation).norm();
-    // Expression: the shape without the rigid pose, less each rig's own neutral.
-    evaluator.EvaluateShape(wt, &truth_shape);
-    tracked_evaluator.EvaluateShape(ws, &solved_shape);
-    if (iod3_neutral > 0.) {
-      err.expression += ((solved_shape - tracked_rig.neutral) - (truth_shape - rig.neutral))
-                            .rowwise().norm().mean() / iod3_neutral;
-      neutral.expression += (truth_shape - rig.neutral).rowwise().norm().mean() / iod3_neutral;
-    }
-    evaluator.EvaluatePosed(truth_pose, wt, &truth_posed);
-    tracked_evaluator.EvaluatePosed(solved, ws, &solved_posed);
-    if (has_eyes) {
-      const int a = rig.landmarks[36], b = rig.landmarks[45];
-      const float iod3 = (truth_posed.row(a) - truth_posed.row(b)).norm();
-      const Eigen::Vector2f pa = camera.Project(truth_posed.row(a).transpose()).head<2>();
-      const Eigen::Vector2f pb = camera.Project(truth_posed.row(b).transpose()).head<2>();
-      const float iod2 = (pa - pb).norm();
-      double lm = 0.;
-      for (int l = 0; l < L; ++l) {
-        // The same surface points on both meshes (one topology): the truth's landmarks.
-        lm += (camera.Project(truth_posed.row(rig.landmarks[l]).transpose()).head<2>() -
-               tracked_camera.Project(solved_posed.row(rig.landmarks[l]).transpose()).head<2>())
-                  .norm();
-      }
-      err.nme += lm / L / iod2;
-      frame_errors.back()[3] = lm / L / iod2;
-      err.vertex += (truth_posed - solved_posed).rowwise().norm().mean() / iod3;
+    return frame_weight_err;
+  }
+
+  // Expression: the shape without the rigid pose, less each rig's own neutral.
+  void ScoreExpression(const Eigen::VectorXf& wt, const Eigen::VectorXf& ws) {
+    evaluator_.EvaluateShape(wt, &truth_shape_);
+    tracked_evaluator_.EvaluateShape(ws, &solved_shape_);
+    if (iod3_neutral_ > 0.) {
+      scores_.err.expression +=
+          ((solved_shape_ - tracked_rig_.neutral) - (truth_shape_ - rig_.neutral))
+              .rowwise().norm().mean() / iod3_neutral_;
+      scores_.neutral.expression +=
+          (truth_shape_ - rig_.neutral).rowwise().norm().mean() / iod3_neutral_;
     }
   }
-  const double n = static_cast<double>(std::max<int64_t>(scored, 1));
-  const double na = static_cast<double>(std::max<int64_t>(err.active_count, 1));
-  std::sort(pose_errors.begin(), pose_errors.end());
-  const double pose_median = pose_errors.empty() ? 0. : pose_errors[pose_errors.size() / 2];
-  double sec = 0., cost_mean = 0.;
+
+  // Landmark NME and vertex error of the posed meshes, over the inter-ocular distance.
+  void ScoreLandmarks() {
+    const render::Camera& camera = truth_.camera;
+    const int a = rig_.landmarks[36], b = rig_.landmarks[45];
+    const float iod3 = (truth_posed_.row(a) - truth_posed_.row(b)).norm();
+    const Eigen::Vector2f pa = camera.Project(truth_posed_.row(a).transpose()).head<2>();
+    const Eigen::Vector2f pb = camera.Project(truth_posed_.row(b).transpose()).head<2>();
+    const float iod2 = (pa - pb).norm();
+    double lm = 0.;
+    for (int l = 0; l < L_; ++l) {
+      // The same surface points on both meshes (one topology): the truth's landmarks.
+      lm += (camera.Project(truth_posed_.row(rig_.landmarks[l]).transpose()).head<2>() -
+             tracked_camera_.Project(solved_posed_.row(rig_.landmarks[l]).transpose()).head<2>())
+                .norm();
+    }
+    scores_.err.nme += lm / L_ / iod2;
+    scores_.frame_errors.back()[3] = lm / L_ / iod2;
+    scores_.err.vertex += (truth_posed_ - solved_posed_).rowwise().norm().mean() / iod3;
+  }
+
+  const rig::Rig& rig_;
+  const rig::Rig& tracked_rig_;
+  const TrackTruth& truth_;
+  const render::Camera tracked_camera_;
+  const rig::RigEvaluator evaluator_, tracked_evaluator_;
+  const int S_, L_;
+  const double iod3_neutral_;
+  rig::Vertices truth_posed_, solved_posed_, truth_shape_, solved_shape_;
+  TrackScores scores_;
+};
+
+// Means over the scored frames (n of them, na active true weights).
+struct TrackSummary {
+  double n = 1., na = 1., pose_median = 0., sec = 0., cost_mean = 0.;
   int converged = 0;
+};
+
+TrackSummary Summarize(const TrackScores& sc, const TrackSolves& solves, int64_t frames) {
+  TrackSummary m;
+  m.n = static_cast<double>(std::max<int64_t>(sc.scored, 1));
+  m.na = static_cast<double>(std::max<int64_t>(sc.err.active_count, 1));
+  std::vector<double> pose_errors = sc.pose_errors;
+  std::sort(pose_errors.begin(), pose_errors.end());
+  m.pose_median = pose_errors.empty() ? 0. : pose_errors[pose_errors.size() / 2];
   for (int64_t f = 0; f < frames; ++f) {
-    if (termination[f] == 3) continue;
-    sec += seconds[f];
-    cost_mean += cost[f];
-    converged += termination[f] == 0;
+    if (solves.termination[f] == 3) continue;
+    m.sec += solves.seconds[f];
+    m.cost_mean += solves.cost[f];
+    m.converged += solves.termination[f] == 0;
   }
+  return m;
+}
+
+// ", \"per_frame\": {...}": each scored frame's index and errors, one array per column.
+std::string PerFrameJson(const std::vector<std::array<double, 4>>& frame_errors) {
   std::ostringstream js;
-  js << "{\"frames\": " << scored << ", \"frames_without_target\": " << frames - scored
+  const char* keys[4] = {"frame", "pose_err_deg", "weights_mae", "landmark_nme"};
+  js << ", \"per_frame\": {";
+  for (int c = 0; c < 4; ++c) {
+    js << (c ? "], " : "") << "\"" << keys[c] << "\": [";
+    for (size_t i = 0; i < frame_errors.size(); ++i) {
+      js << (i ? ", " : "") << (c == 0 ? std::to_string(static_cast<int64_t>(frame_errors[i][0]))
+                                       : JsonNumber(frame_errors[i][c]));
+    }
+  }
+  js << "]}";
+  return js.str();
+}
+
+// The metrics as one JSON object (with each scored frame's errors when per_frame).
+std::string TrackMetricsJson(const TrackScores& sc, const TrackSummary& m, int64_t frames,
+                             const rig::Rig& rig, bool has_eyes, bool per_frame) {
+  const TrackErrors& err = sc.err;
+  const TrackErrors& neutral = sc.neutral;
+  const double n = m.n, na = m.na;
+  std::ostringstream js;
+  js << "{\"frames\": " << sc.scored << ", \"frames_without_target\": " << frames - sc.scored
      << ", \"pose_err_deg_mean\": " << JsonNumber(err.pose / n)
-     << ", \"pose_err_deg_median\": " << JsonNumber(pose_median)
+     << ", \"pose_err_deg_median\": " << JsonNumber(m.pose_median)
      << ", \"translation_err_cm_mean\": " << JsonNumber(err.translation / n)
      << ", \"weights_mae\": " << JsonNumber(err.weights / n)
      << ", \"weights_mae_neutral\": " << JsonNumber(neutral.weights / n)
@@ -282,45 +363,92 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
      << ", \"expression_err_rel_neutral\": " << JsonNumber(neutral.expression / n)
      << ", \"landmark_nme\": " << (has_eyes ? JsonNumber(err.nme / n) : "null")
      << ", \"vertex_err_rel_mean\": " << (has_eyes ? JsonNumber(err.vertex / n) : "null")
-     << ", \"sec_per_frame\": " << JsonNumber(sec / n)
-     << ", \"cost_mean\": " << JsonNumber(cost_mean / n)
-     << ", \"converged_fraction\": " << JsonNumber(converged / n)
+     << ", \"sec_per_frame\": " << JsonNumber(m.sec / n)
+     << ", \"cost_mean\": " << JsonNumber(m.cost_mean / n)
+     << ", \"converged_fraction\": " << JsonNumber(m.converged / n)
      << ", \"weights_mae_per_shape\": {";
-  for (int s = 0; s < S; ++s) {
-    js << (s ? ", " : "") << "\"" << rig.shapes[s].name << "\": " << JsonNumber(per_shape[s] / n);
+  for (int s = 0; s < rig.NumShapes(); ++s) {
+    js << (s ? ", " : "") << "\"" << rig.shapes[s].name << "\": " << JsonNumber(sc.per_shape[s] / n);
   }
   js << "}";
-  if (o.per_frame) {
-    const char* keys[4] = {"frame", "pose_err_deg", "weights_mae", "landmark_nme"};
-    js << ", \"per_frame\": {";
-    for (int c = 0; c < 4; ++c) {
-      js << (c ? "], " : "") << "\"" << keys[c] << "\": [";
-      for (size_t i = 0; i < frame_errors.size(); ++i) {
-        js << (i ? ", " : "") << (c == 0 ? std::to_string(static_cast<int64_t>(frame_errors[i][0]))
-                                         : JsonNumber(frame_errors[i][c]));
-      }
-    }
-    js << "]}";
-  }
+  if (per_frame) js << PerFrameJson(sc.frame_errors);
   js << "}";
+  return js.str();
+}
+
+// The metrics as a readable table.
+void PrintTrackTable(const TrackScores& sc, const TrackSummary& m, int64_t frames) {
+  const TrackErrors& err = sc.err;
+  const TrackErrors& neutral = sc.neutral;
+  const double n = m.n, na = m.na;
+  std::printf("frames %lld (%lld without a face to track)\npose error %.3f deg (median %.3f)\n"
+              "weight MAE %.4f (neutral face: %.4f)\n"
+              "weight MAE over the %lld active true weights (> %.1f) %.4f (neutral face: %.4f)\n"
+              "expression vertex error / IOD %.4f (neutral face: %.4f)\n"
+              "landmark NME %.4f\nvertex error / IOD %.4f\nsec per frame %.4f\n",
+              static_cast<long long>(sc.scored), static_cast<long long>(frames - sc.scored),
+              err.pose / n, m.pose_median, err.weights / n, neutral.weights / n,
+              static_cast<long long>(err.active_count), kActiveWeight, err.active / na,
+              neutral.active / na, err.expression / n, neutral.expression / n, err.nme / n,
+              err.vertex / n, m.sec / n);
+}
+
+void RunEvalTrack(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<EvalTrackOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  std::string why;
+  if (!o.Check(&why)) throw InvalidInputError("eval track: " + why);
+
+  io::H5File truth = io::H5File::OpenRead(o.truth);
+  io::H5File track = io::H5File::OpenRead(o.track);
+  const rig::Rig rig = ReadTruthRig(o, truth);
+  const rig::Rig tracked_rig = o.rig.empty() ? rig : io::ReadRigFile(o.rig);
+  if (tracked_rig.NumVertices() != rig.NumVertices() ||
+      tracked_rig.landmarks.size() != rig.landmarks.size()) {
+    throw FileIOError(o.rig + ": not the truth's topology (" +
+                      std::to_string(tracked_rig.NumVertices()) + " vertices, " +
+                      std::to_string(rig.NumVertices()) + " in the truth)");
+  }
+  TrackTruth t = ReadTruthLayout(o, truth, rig);
+  // The track's poses and weights in the tracked rig's order.
+  const TrackedRig tracked(o.track, tracked_rig);
+  const int64_t frames = tracked.NumFrames();
+  ReadTruthFrames(o, truth, tracked, &t);
+  TrackSolves solves;
+  solves.seconds = track.ReadVector<double>("/track/seconds", frames);
+  solves.cost = track.ReadVector<double>("/track/cost", frames);
+  solves.termination = track.ReadVector<int32_t>("/track/termination", frames);
+  t.camera = TruthCamera(truth);
+  // The tracked rig is projected with the tracking camera, scaled to the truth's images.
+  const render::Camera tracked_camera =
+      tracked.HasCameraWidth() ? tracked.CameraForWidth(t.camera.width, t.camera.height) : t.camera;
+  if (truth.HasAttribute("/camera/intrinsics", "distance_cm")) {
+    t.distance = static_cast<float>(truth.GetDoubleAttribute("/camera/intrinsics", "distance_cm"));
+  }
+  if (t.translation.rows() == 0 && t.distance <= 0.f) {
+    throw FileIOError(o.truth + ": no " + t.group + "/translation and no distance_cm on /camera/intrinsics");
+  }
+
+  TrackScorer scorer(rig, tracked_rig, t, tracked_camera);
+  // Frames the tracker had no face to solve (/track/termination 3) are not scored.
+  for (int64_t f = 0; f < frames; ++f) {
+    if (solves.termination[f] == 3) continue;
+    scorer.Score(f, TruthRow(tracked, f), tracked.Pose(f), tracked.Weights(f));
+  }
+  const TrackSummary summary = Summarize(scorer.scores(), solves, frames);
+  const std::string js =
+      TrackMetricsJson(scorer.scores(), summary, frames, rig, scorer.HasEyes(), o.per_frame);
   if (o.json) {
-    std::cout << js.str() << std::endl;
+    std::cout << js << std::endl;
   } else {
-    std::printf("frames %lld (%lld without a face to track)\npose error %.3f deg (median %.3f)\n"
-                "weight MAE %.4f (neutral face: %.4f)\n"
-                "weight MAE over the %lld active true weights (> %.1f) %.4f (neutral face: %.4f)\n"
-                "expression vertex error / IOD %.4f (neutral face: %.4f)\n"
-                "landmark NME %.4f\nvertex error / IOD %.4f\nsec per frame %.4f\n",
-                static_cast<long long>(scored), static_cast<long long>(frames - scored),
-                err.pose / n, pose_median, err.weights / n, neutral.weights / n,
-                static_cast<long long>(err.active_count), kActiveWeight, err.active / na,
-                neutral.active / na, err.expression / n, neutral.expression / n, err.nme / n,
-                err.vertex / n, sec / n);
+    PrintTrackTable(scorer.scores(), summary, frames);
   }
   if (!o.out.empty()) {
     std::ofstream file(o.out);
     if (!file) throw OutputError("eval track: cannot write " + o.out);
-    file << js.str() << "\n";
+    file << js << "\n";
   }
 }
 
