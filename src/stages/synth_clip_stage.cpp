@@ -108,202 +108,257 @@ struct ClipThread {
   synth::ClipRenderer::Frame frame;
 };
 
-void RunSynthClip(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<SynthClipOptions>(flags, &ctx, &resolved);
-  const dist::Comm& comm = ctx.comm;
-  const synth::ClipOptions& co = o.clip;
+// The per-frame datasets of a clip in a new or continued output.
+void CreateClipDatasets(io::H5File* f, int H, int W, int S, int64_t frames) {
+  f->CreateFrames<uint8_t>("/frames/image", {H, W, 3}, frames, 1);
+  f->SetAttribute("/frames/image", "layout", std::string("frame, y, x, RGB (sRGB)"));
+  f->CreateFrames<uint8_t>("/frames/segmentation", {H, W, 3}, frames, 1);
+  f->SetAttribute("/frames/segmentation", "layout",
+                  std::string("frame, y, x, RGB; region colours of /regions/colors"));
+  f->CreateFrames<float>("/frames/pose", {3}, frames, 1024);
+  f->SetAttribute("/frames/pose", "columns", std::string("pitch, yaw, roll"));
+  f->SetAttribute("/frames/pose", "units", std::string("rad"));
+  f->CreateFrames<float>("/frames/translation", {3}, frames, 1024);
+  f->SetAttribute("/frames/translation", "units",
+                  std::string("cm, camera space (x right, y up, camera looks down -z)"));
+  f->CreateFrames<float>("/frames/weights", {S}, frames, 256);
+  f->CreateFrames<float>("/frames/landmarks", {kNumLandmarks, 2}, frames, 256);
+  f->SetAttribute("/frames/landmarks", "units", std::string("pixels (x right, y down), iBUG 68"));
+  f->CreateFrames<uint8_t>("/frames/landmark_visible", {kNumLandmarks}, frames, 1024);
+  f->CreateFrames<float>("/frames/degradation", {kNumDegradationColumns}, frames, 1024);
+  f->SetAttribute("/frames/degradation", "columns",
+                  std::string("exposure, defocus_sigma_px, motion_blur_px, motion_blur_angle_rad, "
+                              "noise_sigma_levels, jpeg_quality (0: none)"));
+}
 
-  // Every rank builds the person, the trajectory and the renderer: each frame is a pure
-  // function of its index and the seeds.
-  rig::Rig person;
-  std::vector<synth::ClipFrameParams> trajectory;
-  std::unique_ptr<synth::ClipRenderer> renderer;
-  Image8 photo;
-  dist::CoordinateExceptions(comm, [&] {
-    const rig::Rig rig = io::ReadRigFile(o.rig);
-    if (rig.landmarks.size() != kNumLandmarks) {
-      throw FileIOError(o.rig + ": the rig has " + std::to_string(rig.landmarks.size()) +
-                        " landmarks, synth clip needs the 68 iBUG landmarks");
-    }
-    if (co.identity_seed != 0 && rig.identity_modes.empty()) {
-      throw FileIOError(o.rig + ": the rig has no identity modes, so identity_seed " +
-                        std::to_string(co.identity_seed) + " cannot make a person of it "
-                        "(use identity_seed = 0)");
-    }
-    person = rig::WithIdentity(rig, co.identity_seed, co.identity_magnitude);
-    trajectory = synth::MakeClipTrajectory(person, co);
-    photo = BackgroundPhoto(o.background_folder, co.background_seed);
-    renderer = std::make_unique<synth::ClipRenderer>(person, co, &photo);
-  });
-  const int S = person.NumShapes(), H = co.size, W = co.size;
-  const render::Camera& camera = renderer->camera();
-
-  ResumableOutput output;
-  std::vector<int64_t> pending;
-  int up_to_date = 0;
-  dist::CoordinateExceptions(comm, [&] {
-    if (!comm.IsMainRank()) return;
-    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "synth clip", resolved));
-    if (output.up_to_date) {
-      up_to_date = 1;
-      return;
-    }
-    io::H5File& f = output.file;
-    f.CreateFrames<uint8_t>("/frames/image", {H, W, 3}, co.frames, 1);
-    f.SetAttribute("/frames/image", "layout", std::string("frame, y, x, RGB (sRGB)"));
-    f.CreateFrames<uint8_t>("/frames/segmentation", {H, W, 3}, co.frames, 1);
-    f.SetAttribute("/frames/segmentation", "layout",
-                   std::string("frame, y, x, RGB; region colours of /regions/colors"));
-    f.CreateFrames<float>("/frames/pose", {3}, co.frames, 1024);
-    f.SetAttribute("/frames/pose", "columns", std::string("pitch, yaw, roll"));
-    f.SetAttribute("/frames/pose", "units", std::string("rad"));
-    f.CreateFrames<float>("/frames/translation", {3}, co.frames, 1024);
-    f.SetAttribute("/frames/translation", "units",
-                   std::string("cm, camera space (x right, y up, camera looks down -z)"));
-    f.CreateFrames<float>("/frames/weights", {S}, co.frames, 256);
-    f.CreateFrames<float>("/frames/landmarks", {kNumLandmarks, 2}, co.frames, 256);
-    f.SetAttribute("/frames/landmarks", "units", std::string("pixels (x right, y down), iBUG 68"));
-    f.CreateFrames<uint8_t>("/frames/landmark_visible", {kNumLandmarks}, co.frames, 1024);
-    f.CreateFrames<float>("/frames/degradation", {kNumDegradationColumns}, co.frames, 1024);
-    f.SetAttribute("/frames/degradation", "columns",
-                   std::string("exposure, defocus_sigma_px, motion_blur_px, motion_blur_angle_rad, "
-                               "noise_sigma_levels, jpeg_quality (0: none)"));
-    if (!output.resumed) {
-      std::vector<std::string> names;
-      for (const auto& s : person.shapes) names.push_back(s.name);
-      f.WriteStrings("/frames/shape_names", names);
-      std::vector<std::string> region_names;
-      Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> colors(person.regions.size(), 3);
-      for (size_t r = 0; r < person.regions.size(); ++r) {
-        region_names.push_back(person.regions[r].name);
-        colors.row(r) = person.regions[r].color.transpose();
-      }
-      f.WriteStrings("/regions/names", region_names);
-      f.WriteMatrix("/regions/colors", colors);
-      f.WriteVector<double>("/camera/intrinsics", {camera.fx, camera.fy, camera.cx, camera.cy});
-      f.SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
-      f.SetAttribute("/camera/intrinsics", "width", static_cast<int64_t>(W));
-      f.SetAttribute("/camera/intrinsics", "height", static_cast<int64_t>(H));
-      f.SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(renderer->distance()));
-      f.SetAttribute("/camera/intrinsics", "fps", static_cast<double>(co.fps));
-      f.WriteVector<int>("/identity/seed", {co.identity_seed});
-      f.WriteVector<float>("/identity/coefficients",
-                           rig::DemoIdentityCoefficients(co.identity_seed,
-                                                         static_cast<int>(person.identity_modes.size())));
-      f.SetAttribute("/identity/coefficients", "magnitude", static_cast<double>(co.identity_magnitude));
-      const synth::PersonColors& pc = renderer->colors();
-      Eigen::Matrix<float, 5, 3, Eigen::RowMajor> person_colors;
-      person_colors << pc.skin.transpose(), pc.lips.transpose(), pc.hair.transpose(),
-          pc.iris.transpose(), pc.sclera.transpose();
-      f.WriteMatrix("/identity/colors", person_colors);
-      f.SetAttribute("/identity/colors", "rows", std::string("skin, lips, hair, iris, sclera (linear RGB)"));
-      // The person's own rig, so that trackers can be scored against the true rig.
-      io::WriteRig(person, &f, "/rig");
-    }
-    io::DoneMask mask(&f, co.frames);
-    pending = mask.Pending();
-    if (output.resumed) {
-      FC_INFO("synth clip: continuing {}: {} of {} frames already done",
-              io::H5File::PartialPath(o.out), mask.NumDone(), co.frames);
-    }
-  });
-  comm.Broadcast(&up_to_date, sizeof(up_to_date));
-  if (up_to_date) {
-    if (comm.IsMainRank()) FC_INFO("synth clip: {} is up to date", o.out);
-  } else {
-    const int threads = ThreadsPerRank(o.threads);
-    std::vector<ClipThread> workers(threads);
-    FrameLoopOptions loop;
-    loop.what = "synth clip";
-    loop.batch = o.batch;
-    loop.threads = threads;
-    auto compute = [&](int64_t index, int thread) {
-      ClipThread& t = workers[thread];
-      const synth::ClipFrameParams& p = trajectory[index];
-      renderer->Render(index, p, &t.workspace, &t.frame);
-      const synth::ClipRenderer::Frame& fr = t.frame;
-      ByteWriter w;
-      w.PutVector(fr.image.data);
-      w.PutVector(fr.segmentation.data);
-      const float angles[3] = {p.pitch, p.yaw, p.roll};
-      w.PutArray(angles, 3);
-      w.PutArray(fr.pose.translation.data(), 3);
-      w.PutArray(p.weights.data(), S);
-      std::vector<float> xy;
-      std::vector<uint8_t> visible;
-      for (const auto& l : fr.landmarks) {
-        xy.push_back(l.position.x());
-        xy.push_back(l.position.y());
-        visible.push_back(l.visible ? 1 : 0);
-      }
-      w.PutVector(xy);
-      w.PutVector(visible);
-      const float degradation[kNumDegradationColumns] = {
-          fr.degradation.exposure, fr.degradation.defocus_sigma,
-          fr.degradation.motion_blur_length, fr.degradation.motion_blur_angle,
-          fr.degradation.noise_sigma, static_cast<float>(fr.degradation.jpeg_quality)};
-      w.PutArray(degradation, kNumDegradationColumns);
-      return std::move(w.bytes());
-    };
-    auto commit = [&](const std::vector<int64_t>& frames,
-                      const std::vector<std::vector<uint8_t>>& results) {
-      io::H5File& f = output.file;
-      size_t k = 0;
-      while (k < frames.size()) {
-        size_t end = k + 1;
-        while (end < frames.size() && frames[end] == frames[end - 1] + 1) ++end;
-        const int64_t n = static_cast<int64_t>(end - k);
-        std::vector<uint8_t> image, seg, vis;
-        std::vector<float> angles, translation, weights, xy, degradation;
-        auto append = [](auto* to, const auto& from) { to->insert(to->end(), from.begin(), from.end()); };
-        for (size_t j = k; j < end; ++j) {
-          ByteReader r(results[j]);
-          append(&image, r.GetVector<uint8_t>());
-          append(&seg, r.GetVector<uint8_t>());
-          append(&angles, r.GetVector<float>());
-          append(&translation, r.GetVector<float>());
-          append(&weights, r.GetVector<float>());
-          append(&xy, r.GetVector<float>());
-          append(&vis, r.GetVector<uint8_t>());
-          append(&degradation, r.GetVector<float>());
-        }
-        f.WriteFrames<uint8_t>("/frames/image", frames[k], n, image.data());
-        f.WriteFrames<uint8_t>("/frames/segmentation", frames[k], n, seg.data());
-        f.WriteFrames<float>("/frames/pose", frames[k], n, angles.data());
-        f.WriteFrames<float>("/frames/translation", frames[k], n, translation.data());
-        f.WriteFrames<float>("/frames/weights", frames[k], n, weights.data());
-        f.WriteFrames<float>("/frames/landmarks", frames[k], n, xy.data());
-        f.WriteFrames<uint8_t>("/frames/landmark_visible", frames[k], n, vis.data());
-        f.WriteFrames<float>("/frames/degradation", frames[k], n, degradation.data());
-        k = end;
-      }
-      io::DoneMask mask(&f, co.frames);
-      mask.MarkDone(frames);
-    };
-    RunFrameLoop(comm, pending, co.frames, loop, compute, commit);
-    dist::CoordinateExceptions(comm, [&] {
-      if (comm.IsMainRank()) output.file.Commit();
-    });
-    if (comm.IsMainRank()) FC_INFO("synth clip: {} frames -> {}", co.frames, o.out);
+// The person's shape and region names and region colours (a new output).
+void WriteShapesAndRegions(io::H5File* f, const rig::Rig& person) {
+  std::vector<std::string> names;
+  for (const auto& s : person.shapes) names.push_back(s.name);
+  f->WriteStrings("/frames/shape_names", names);
+  std::vector<std::string> region_names;
+  Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> colors(person.regions.size(), 3);
+  for (size_t r = 0; r < person.regions.size(); ++r) {
+    region_names.push_back(person.regions[r].name);
+    colors.row(r) = person.regions[r].color.transpose();
   }
-  if (o.video) {
-    dist::CoordinateExceptions(comm, [&] {
-      if (!comm.IsMainRank()) return;
-      const std::string video = VideoPath(o.out);
+  f->WriteStrings("/regions/names", region_names);
+  f->WriteMatrix("/regions/colors", colors);
+}
+
+// The person's identity: seed, coefficients and colours (a new output).
+void WriteIdentity(io::H5File* f, const rig::Rig& person, const synth::ClipOptions& co,
+                   const synth::PersonColors& pc) {
+  f->WriteVector<int>("/identity/seed", {co.identity_seed});
+  f->WriteVector<float>("/identity/coefficients",
+                        rig::DemoIdentityCoefficients(co.identity_seed,
+                                                      static_cast<int>(person.identity_modes.size())));
+  f->SetAttribute("/identity/coefficients", "magnitude", static_cast<double>(co.identity_magnitude));
+  Eigen::Matrix<float, 5, 3, Eigen::RowMajor> person_colors;
+  person_colors << pc.skin.transpose(), pc.lips.transpose(), pc.hair.transpose(),
+      pc.iris.transpose(), pc.sclera.transpose();
+  f->WriteMatrix("/identity/colors", person_colors);
+  f->SetAttribute("/identity/colors", "rows", std::string("skin, lips, hair, iris, sclera (linear RGB)"));
+}
+
+// One synth clip run. Every rank builds the person, the trajectory and the renderer: each
+// frame is a pure function of its index and the seeds. Rank 0 writes the output.
+class SynthClipRun {
+ public:
+  SynthClipRun(const SynthClipOptions& o, const StageContext& ctx, const io::Config& resolved)
+      : o_(o), co_(o.clip), ctx_(ctx), resolved_(resolved), comm_(ctx.comm) {}
+
+  void Run() {
+    BuildPerson();
+    S_ = person_.NumShapes();
+    if (OpenOutput()) {
+      if (comm_.IsMainRank()) FC_INFO("synth clip: {} is up to date", o_.out);
+    } else {
+      const int threads = ThreadsPerRank(o_.threads);
+      workers_ = std::vector<ClipThread>(threads);
+      FrameLoopOptions loop;
+      loop.what = "synth clip";
+      loop.batch = o_.batch;
+      loop.threads = threads;
+      RunFrameLoop(
+          comm_, pending_, co_.frames, loop,
+          [&](int64_t index, int thread) { return RenderFrame(index, thread); },
+          [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
+            CommitFrames(frames, results);
+          });
+      dist::CoordinateExceptions(comm_, [&] {
+        if (comm_.IsMainRank()) output_.file.Commit();
+      });
+      if (comm_.IsMainRank()) FC_INFO("synth clip: {} frames -> {}", co_.frames, o_.out);
+    }
+    if (o_.video) WriteVideo();
+  }
+
+ private:
+  // The person of the rig and identity_seed, its trajectory, background and renderer.
+  void BuildPerson() {
+    dist::CoordinateExceptions(comm_, [&] {
+      const rig::Rig rig = io::ReadRigFile(o_.rig);
+      if (rig.landmarks.size() != kNumLandmarks) {
+        throw FileIOError(o_.rig + ": the rig has " + std::to_string(rig.landmarks.size()) +
+                          " landmarks, synth clip needs the 68 iBUG landmarks");
+      }
+      if (co_.identity_seed != 0 && rig.identity_modes.empty()) {
+        throw FileIOError(o_.rig + ": the rig has no identity modes, so identity_seed " +
+                          std::to_string(co_.identity_seed) + " cannot make a person of it "
+                          "(use identity_seed = 0)");
+      }
+      person_ = rig::WithIdentity(rig, co_.identity_seed, co_.identity_magnitude);
+      trajectory_ = synth::MakeClipTrajectory(person_, co_);
+      photo_ = BackgroundPhoto(o_.background_folder, co_.background_seed);
+      renderer_ = std::make_unique<synth::ClipRenderer>(person_, co_, &photo_);
+    });
+  }
+
+  // Rank 0 opens (or continues) the output; true on every rank when it is up to date.
+  bool OpenOutput() {
+    int up_to_date = 0;
+    dist::CoordinateExceptions(comm_, [&] {
+      if (!comm_.IsMainRank()) return;
+      output_ = OpenResumableOutput(o_.out, resolved_.ToToml(), MakeProvenance(ctx_, "synth clip", resolved_));
+      if (output_.up_to_date) {
+        up_to_date = 1;
+        return;
+      }
+      io::H5File& f = output_.file;
+      CreateClipDatasets(&f, co_.size, co_.size, S_, co_.frames);
+      if (!output_.resumed) WriteRecords(&f);
+      io::DoneMask mask(&f, co_.frames);
+      pending_ = mask.Pending();
+      if (output_.resumed) {
+        FC_INFO("synth clip: continuing {}: {} of {} frames already done",
+                io::H5File::PartialPath(o_.out), mask.NumDone(), co_.frames);
+      }
+    });
+    comm_.Broadcast(&up_to_date, sizeof(up_to_date));
+    return up_to_date != 0;
+  }
+
+  // The person, the camera and the person's own rig, so that trackers can be scored against
+  // the true rig (a new output).
+  void WriteRecords(io::H5File* f) {
+    const render::Camera& camera = renderer_->camera();
+    const int H = co_.size, W = co_.size;
+    WriteShapesAndRegions(f, person_);
+    f->WriteVector<double>("/camera/intrinsics", {camera.fx, camera.fy, camera.cx, camera.cy});
+    f->SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
+    f->SetAttribute("/camera/intrinsics", "width", static_cast<int64_t>(W));
+    f->SetAttribute("/camera/intrinsics", "height", static_cast<int64_t>(H));
+    f->SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(renderer_->distance()));
+    f->SetAttribute("/camera/intrinsics", "fps", static_cast<double>(co_.fps));
+    WriteIdentity(f, person_, co_, renderer_->colors());
+    io::WriteRig(person_, f, "/rig");
+  }
+
+  // Renders frame `index`: the wild image, segmentation, pose, weights, landmarks, degradation.
+  std::vector<uint8_t> RenderFrame(int64_t index, int thread) {
+    ClipThread& t = workers_[thread];
+    const synth::ClipFrameParams& p = trajectory_[index];
+    renderer_->Render(index, p, &t.workspace, &t.frame);
+    const synth::ClipRenderer::Frame& fr = t.frame;
+    ByteWriter w;
+    w.PutVector(fr.image.data);
+    w.PutVector(fr.segmentation.data);
+    const float angles[3] = {p.pitch, p.yaw, p.roll};
+    w.PutArray(angles, 3);
+    w.PutArray(fr.pose.translation.data(), 3);
+    w.PutArray(p.weights.data(), S_);
+    std::vector<float> xy;
+    std::vector<uint8_t> visible;
+    for (const auto& l : fr.landmarks) {
+      xy.push_back(l.position.x());
+      xy.push_back(l.position.y());
+      visible.push_back(l.visible ? 1 : 0);
+    }
+    w.PutVector(xy);
+    w.PutVector(visible);
+    const float degradation[kNumDegradationColumns] = {
+        fr.degradation.exposure, fr.degradation.defocus_sigma,
+        fr.degradation.motion_blur_length, fr.degradation.motion_blur_angle,
+        fr.degradation.noise_sigma, static_cast<float>(fr.degradation.jpeg_quality)};
+    w.PutArray(degradation, kNumDegradationColumns);
+    return std::move(w.bytes());
+  }
+
+  // Rank 0: each contiguous run of rendered frames written at once, then marked done.
+  void CommitFrames(const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
+    io::H5File& f = output_.file;
+    size_t k = 0;
+    while (k < frames.size()) {
+      size_t end = k + 1;
+      while (end < frames.size() && frames[end] == frames[end - 1] + 1) ++end;
+      const int64_t n = static_cast<int64_t>(end - k);
+      std::vector<uint8_t> image, seg, vis;
+      std::vector<float> angles, translation, weights, xy, degradation;
+      auto append = [](auto* to, const auto& from) { to->insert(to->end(), from.begin(), from.end()); };
+      for (size_t j = k; j < end; ++j) {
+        ByteReader r(results[j]);
+        append(&image, r.GetVector<uint8_t>());
+        append(&seg, r.GetVector<uint8_t>());
+        append(&angles, r.GetVector<float>());
+        append(&translation, r.GetVector<float>());
+        append(&weights, r.GetVector<float>());
+        append(&xy, r.GetVector<float>());
+        append(&vis, r.GetVector<uint8_t>());
+        append(&degradation, r.GetVector<float>());
+      }
+      f.WriteFrames<uint8_t>("/frames/image", frames[k], n, image.data());
+      f.WriteFrames<uint8_t>("/frames/segmentation", frames[k], n, seg.data());
+      f.WriteFrames<float>("/frames/pose", frames[k], n, angles.data());
+      f.WriteFrames<float>("/frames/translation", frames[k], n, translation.data());
+      f.WriteFrames<float>("/frames/weights", frames[k], n, weights.data());
+      f.WriteFrames<float>("/frames/landmarks", frames[k], n, xy.data());
+      f.WriteFrames<uint8_t>("/frames/landmark_visible", frames[k], n, vis.data());
+      f.WriteFrames<float>("/frames/degradation", frames[k], n, degradation.data());
+      k = end;
+    }
+    io::DoneMask mask(&f, co_.frames);
+    mask.MarkDone(frames);
+  }
+
+  // Rank 0: the mp4 beside the clip, unless one newer than the clip is there.
+  void WriteVideo() {
+    dist::CoordinateExceptions(comm_, [&] {
+      if (!comm_.IsMainRank()) return;
+      const std::string video = VideoPath(o_.out);
       // An mp4 older than the clip belongs to another run.
       std::error_code ec;
       const bool fresh = std::filesystem::exists(video, ec) &&
                          std::filesystem::last_write_time(video, ec) >=
-                             std::filesystem::last_write_time(o.out, ec);
+                             std::filesystem::last_write_time(o_.out, ec);
       if (fresh) {
         FC_INFO("synth clip: {} is up to date", video);
       } else {
-        WriteClipVideo(o.out, video, co.fps);
+        WriteClipVideo(o_.out, video, co_.fps);
       }
     });
   }
+
+  const SynthClipOptions& o_;
+  const synth::ClipOptions& co_;
+  const StageContext& ctx_;
+  const io::Config& resolved_;
+  const dist::Comm& comm_;
+  rig::Rig person_;
+  std::vector<synth::ClipFrameParams> trajectory_;
+  Image8 photo_;  // the renderer's background photo
+  std::unique_ptr<synth::ClipRenderer> renderer_;
+  int S_ = 0;
+  ResumableOutput output_;  // rank 0
+  std::vector<int64_t> pending_;
+  std::vector<ClipThread> workers_;
+};
+
+void RunSynthClip(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<SynthClipOptions>(flags, &ctx, &resolved);
+  SynthClipRun(o, ctx, resolved).Run();
 }
 
 // [synth.sheet]
