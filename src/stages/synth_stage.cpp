@@ -1,5 +1,7 @@
 // facecap synth samples: random rig samples rendered as segmentation images (paper 000
 // Sec. 7), spread across ranks, resumable.
+#include <memory>
+
 #include "face/align.h"
 #include "io/rig_io.h"
 #include "render/camera.h"
@@ -74,123 +76,153 @@ struct SampleRenderer {
   std::vector<render::Landmark2D> landmarks;
 };
 
-void RunSynthSamples(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<SynthSamplesOptions>(flags, &ctx, &resolved);
-  const dist::Comm& comm = ctx.comm;
-  const synth::SampleOptions& so = o.sample;
+// The per-sample datasets in a new or continued output.
+void CreateSampleDatasets(io::H5File* f, int H, int W, int S, int64_t count, const std::string& framing) {
+  f->CreateFrames<uint8_t>("/samples/segmentation", {H, W, 3}, count, 16, 1);
+  f->SetAttribute("/samples/segmentation", "layout", std::string("frame, y, x, RGB"));
+  f->CreateFrames<float>("/samples/weights", {S}, count, 256, 4);
+  f->CreateFrames<float>("/samples/pose", {3}, count, 1024, 4);
+  f->SetAttribute("/samples/pose", "columns", std::string("pitch, yaw, roll"));
+  f->SetAttribute("/samples/pose", "units", std::string("rad"));
+  f->CreateFrames<float>("/samples/landmarks", {kNumLandmarks, 2}, count, 256, 4);
+  f->SetAttribute("/samples/landmarks", "units", std::string("pixels (x right, y down)"));
+  f->CreateFrames<uint8_t>("/samples/landmark_visible", {kNumLandmarks}, count, 1024, 4);
+  f->CreateFrames<float>("/samples/camera", {4}, count, 1024, 4);
+  f->SetAttribute("/samples/camera", "columns",
+                  std::string("fx, fy, cx, cy (pixels) of the camera each sample is rendered "
+                              "with (" + framing + " framing)"));
+}
 
-  rig::Rig rig;
-  synth::Sparsity sparsity;
-  dist::CoordinateExceptions(comm, [&] {
-    rig = io::ReadRigFile(o.rig);
-    if (rig.landmarks.size() != kNumLandmarks) {
-      throw FileIOError(o.rig + ": the rig has " + std::to_string(rig.landmarks.size()) +
-                        " landmarks, synth samples needs the 68 iBUG landmarks");
-    }
-    sparsity = synth::ResolveSparsity(rig, so);
-  });
-  if (comm.IsMainRank() && !sparsity.ungrouped.empty()) {
-    FC_WARN("synth samples: {} shapes belong to no sparsity group and stay at 0 (first: {})",
-            sparsity.ungrouped.size(), rig.shapes[sparsity.ungrouped[0]].name);
+// The rig's shape and region names, region colours and the camera (a new output).
+void WriteSampleRecords(io::H5File* f, const rig::Rig& rig, const render::Camera& camera,
+                        float distance) {
+  std::vector<std::string> names;
+  for (const auto& s : rig.shapes) names.push_back(s.name);
+  f->WriteStrings("/samples/shape_names", names);
+  std::vector<std::string> region_names;
+  Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> colors(rig.regions.size(), 3);
+  for (size_t r = 0; r < rig.regions.size(); ++r) {
+    region_names.push_back(rig.regions[r].name);
+    colors.row(r) = rig.regions[r].color.transpose();
   }
-  const int S = rig.NumShapes(), H = so.size, W = so.size;
-  const render::Camera camera = synth::SampleCamera(so);
-  const float distance = render::FramingDistance(rig, camera, so.fill);
-  const rig::RigEvaluator evaluator(rig);
-  const bool crop = o.framing == "crop";
-  const auto crop_template = face::CropTemplate({so.size, o.crop_padding, o.crop_raise});
+  f->WriteStrings("/regions/names", region_names);
+  f->WriteMatrix("/regions/colors", colors);
+  f->WriteVector<double>("/camera/intrinsics", {camera.fx, camera.fy, camera.cx, camera.cy});
+  f->SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
+  f->SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(distance));
+}
 
-  // Rank 0 opens the output and knows what is pending.
-  ResumableOutput output;
-  std::vector<int64_t> pending;
-  int up_to_date = 0;
-  dist::CoordinateExceptions(comm, [&] {
-    if (!comm.IsMainRank()) return;
-    output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "synth samples", resolved));
-    if (output.up_to_date) {
-      up_to_date = 1;
+// One synth samples run: the rig read on every rank (each sample is a pure function of its
+// index), the output on rank 0, and the samples rendered.
+class SynthSamplesRun {
+ public:
+  SynthSamplesRun(const SynthSamplesOptions& o, const StageContext& ctx, const io::Config& resolved)
+      : o_(o), so_(o.sample), ctx_(ctx), resolved_(resolved), comm_(ctx.comm),
+        crop_(o.framing == "crop") {}
+
+  void Run() {
+    ReadRig();
+    S_ = rig_.NumShapes();
+    camera_ = synth::SampleCamera(so_);
+    distance_ = render::FramingDistance(rig_, camera_, so_.fill);
+    evaluator_ = std::make_unique<const rig::RigEvaluator>(rig_);
+    crop_template_ = face::CropTemplate({so_.size, o_.crop_padding, o_.crop_raise});
+    if (OpenOutput()) {
+      if (comm_.IsMainRank()) FC_INFO("synth samples: {} is up to date", o_.out);
       return;
     }
-    io::H5File& f = output.file;
-    f.CreateFrames<uint8_t>("/samples/segmentation", {H, W, 3}, so.count, 16, 1);
-    f.SetAttribute("/samples/segmentation", "layout", std::string("frame, y, x, RGB"));
-    f.CreateFrames<float>("/samples/weights", {S}, so.count, 256, 4);
-    f.CreateFrames<float>("/samples/pose", {3}, so.count, 1024, 4);
-    f.SetAttribute("/samples/pose", "columns", std::string("pitch, yaw, roll"));
-    f.SetAttribute("/samples/pose", "units", std::string("rad"));
-    f.CreateFrames<float>("/samples/landmarks", {kNumLandmarks, 2}, so.count, 256, 4);
-    f.SetAttribute("/samples/landmarks", "units", std::string("pixels (x right, y down)"));
-    f.CreateFrames<uint8_t>("/samples/landmark_visible", {kNumLandmarks}, so.count, 1024, 4);
-    f.CreateFrames<float>("/samples/camera", {4}, so.count, 1024, 4);
-    f.SetAttribute("/samples/camera", "columns",
-                   std::string("fx, fy, cx, cy (pixels) of the camera each sample is rendered "
-                               "with (" + o.framing + " framing)"));
-    if (!output.resumed) {
-      std::vector<std::string> names;
-      for (const auto& s : rig.shapes) names.push_back(s.name);
-      f.WriteStrings("/samples/shape_names", names);
-      std::vector<std::string> region_names;
-      Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> colors(rig.regions.size(), 3);
-      for (size_t r = 0; r < rig.regions.size(); ++r) {
-        region_names.push_back(rig.regions[r].name);
-        colors.row(r) = rig.regions[r].color.transpose();
-      }
-      f.WriteStrings("/regions/names", region_names);
-      f.WriteMatrix("/regions/colors", colors);
-      f.WriteVector<double>("/camera/intrinsics", {camera.fx, camera.fy, camera.cx, camera.cy});
-      f.SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
-      f.SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(distance));
-    }
-    io::DoneMask mask(&f, so.count);
-    pending = mask.Pending();
-    if (output.resumed) {
-      FC_INFO("synth samples: continuing {}: {} of {} samples already done",
-              io::H5File::PartialPath(o.out), mask.NumDone(), so.count);
-    }
-  });
-  comm.Broadcast(&up_to_date, sizeof(up_to_date));
-  if (up_to_date) {
-    if (comm.IsMainRank()) FC_INFO("synth samples: {} is up to date", o.out);
-    return;
+    const int threads = ThreadsPerRank(o_.threads);
+    renderers_ = std::vector<SampleRenderer>(threads);
+    FrameLoopOptions loop;
+    loop.what = "synth samples";
+    loop.batch = o_.batch;
+    loop.threads = threads;
+    RunFrameLoop(
+        comm_, pending_, so_.count, loop,
+        [&](int64_t index, int thread) { return RenderSample(index, thread); },
+        [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
+          CommitSamples(frames, results);
+        });
+    dist::CoordinateExceptions(comm_, [&] {
+      if (comm_.IsMainRank()) output_.file.Commit();
+    });
+    if (comm_.IsMainRank()) FC_INFO("synth samples: {} samples -> {}", so_.count, o_.out);
   }
 
-  const int threads = ThreadsPerRank(o.threads);
-  std::vector<SampleRenderer> renderers(threads);
-  FrameLoopOptions loop;
-  loop.what = "synth samples";
-  loop.batch = o.batch;
-  loop.threads = threads;
-  auto compute = [&](int64_t index, int thread) {
-    SampleRenderer& r = renderers[thread];
-    const synth::SampleParams p = synth::DrawSample(sparsity, so, S, index);
-    rig::RigidPose pose = render::FramedPose(rig, distance, p.pitch, p.yaw);
-    render::Camera view_camera = camera;
-    if (crop) {
-      // The crop of the landmarks as ingest aligns it, and the head seen through its camera.
-      evaluator.EvaluatePosed(pose, p.weights, &r.posed);
-      face::Landmarks lm;
-      for (int l = 0; l < kNumLandmarks; ++l) {
-        lm.row(l) = (camera.Project(r.posed.row(rig.landmarks[l]).transpose()).head<2>() -
-                     Eigen::Vector2f(0.5f, 0.5f)).transpose();
+ private:
+  // The rig and the sparsity groups of its shapes (every rank).
+  void ReadRig() {
+    dist::CoordinateExceptions(comm_, [&] {
+      rig_ = io::ReadRigFile(o_.rig);
+      if (rig_.landmarks.size() != kNumLandmarks) {
+        throw FileIOError(o_.rig + ": the rig has " + std::to_string(rig_.landmarks.size()) +
+                          " landmarks, synth samples needs the 68 iBUG landmarks");
       }
-      const std::vector<int>& idx = face::CropAlignmentLandmarks();
-      const face::Similarity2 m =
-          face::FitSimilarity(face::SelectRows(lm, idx), face::SelectRows(crop_template, idx));
-      const render::CropView view = render::CameraOfCrop(camera, m.Matrix().cast<float>(), H, H);
-      view_camera = view.camera;
-      pose = PoseInCrop(pose, view);
+      sparsity_ = synth::ResolveSparsity(rig_, so_);
+    });
+    if (comm_.IsMainRank() && !sparsity_.ungrouped.empty()) {
+      FC_WARN("synth samples: {} shapes belong to no sparsity group and stay at 0 (first: {})",
+              sparsity_.ungrouped.size(), rig_.shapes[sparsity_.ungrouped[0]].name);
     }
-    evaluator.EvaluatePosed(pose, p.weights, &r.posed);
-    render::Rasterize(r.posed, rig.triangles, view_camera, &r.gbuffer);
-    render::RenderSegmentation(r.gbuffer, rig.triangle_region, rig.regions,
+  }
+
+  // Rank 0 opens (or continues) the output; true on every rank when it is up to date.
+  bool OpenOutput() {
+    int up_to_date = 0;
+    dist::CoordinateExceptions(comm_, [&] {
+      if (!comm_.IsMainRank()) return;
+      output_ = OpenResumableOutput(o_.out, resolved_.ToToml(), MakeProvenance(ctx_, "synth samples", resolved_));
+      if (output_.up_to_date) {
+        up_to_date = 1;
+        return;
+      }
+      io::H5File& f = output_.file;
+      CreateSampleDatasets(&f, so_.size, so_.size, S_, so_.count, o_.framing);
+      if (!output_.resumed) WriteSampleRecords(&f, rig_, camera_, distance_);
+      io::DoneMask mask(&f, so_.count);
+      pending_ = mask.Pending();
+      if (output_.resumed) {
+        FC_INFO("synth samples: continuing {}: {} of {} samples already done",
+                io::H5File::PartialPath(o_.out), mask.NumDone(), so_.count);
+      }
+    });
+    comm_.Broadcast(&up_to_date, sizeof(up_to_date));
+    return up_to_date != 0;
+  }
+
+  // Crop framing: the crop of the posed head's landmarks as ingest aligns it; *pose becomes
+  // the head seen through the crop's camera, which is returned.
+  render::Camera CropCamera(const synth::SampleParams& p, SampleRenderer* r, rig::RigidPose* pose) const {
+    evaluator_->EvaluatePosed(*pose, p.weights, &r->posed);
+    face::Landmarks lm;
+    for (int l = 0; l < kNumLandmarks; ++l) {
+      lm.row(l) = (camera_.Project(r->posed.row(rig_.landmarks[l]).transpose()).head<2>() -
+                   Eigen::Vector2f(0.5f, 0.5f)).transpose();
+    }
+    const std::vector<int>& idx = face::CropAlignmentLandmarks();
+    const face::Similarity2 m =
+        face::FitSimilarity(face::SelectRows(lm, idx), face::SelectRows(crop_template_, idx));
+    const render::CropView view = render::CameraOfCrop(camera_, m.Matrix().cast<float>(), so_.size, so_.size);
+    *pose = PoseInCrop(*pose, view);
+    return view.camera;
+  }
+
+  // Draws and renders sample `index`: segmentation, weights, pose, landmarks and camera.
+  std::vector<uint8_t> RenderSample(int64_t index, int thread) {
+    SampleRenderer& r = renderers_[thread];
+    const synth::SampleParams p = synth::DrawSample(sparsity_, so_, S_, index);
+    rig::RigidPose pose = render::FramedPose(rig_, distance_, p.pitch, p.yaw);
+    render::Camera view_camera = camera_;
+    if (crop_) view_camera = CropCamera(p, &r, &pose);
+    evaluator_->EvaluatePosed(pose, p.weights, &r.posed);
+    render::Rasterize(r.posed, rig_.triangles, view_camera, &r.gbuffer);
+    render::RenderSegmentation(r.gbuffer, rig_.triangle_region, rig_.regions,
                                Eigen::Vector3f::Zero(), &r.segmentation);
-    render::ProjectLandmarks(r.posed, rig.triangles, rig.landmarks, view_camera, r.gbuffer,
+    render::ProjectLandmarks(r.posed, rig_.triangles, rig_.landmarks, view_camera, r.gbuffer,
                              &r.landmarks);
     ByteWriter w;
     w.PutVector(r.segmentation.data);
-    w.PutArray(p.weights.data(), S);
+    w.PutArray(p.weights.data(), S_);
     const float angles[3] = {pose.pitch, pose.yaw, pose.roll};
     w.PutArray(angles, 3);
     std::vector<float> xy;
@@ -205,11 +237,11 @@ void RunSynthSamples(const StageFlags& flags, AppState* state) {
     const float intrinsics[4] = {view_camera.fx, view_camera.fy, view_camera.cx, view_camera.cy};
     w.PutArray(intrinsics, 4);
     return std::move(w.bytes());
-  };
-  auto commit = [&](const std::vector<int64_t>& frames,
-                    const std::vector<std::vector<uint8_t>>& results) {
-    io::H5File& f = output.file;
-    // Pending frames come in ascending runs; write each contiguous run at once.
+  }
+
+  // Rank 0: pending frames come in ascending runs; each contiguous run written at once.
+  void CommitSamples(const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
+    io::H5File& f = output_.file;
     size_t k = 0;
     while (k < frames.size()) {
       size_t end = k + 1;
@@ -240,14 +272,33 @@ void RunSynthSamples(const StageFlags& flags, AppState* state) {
       f.WriteFrames<float>("/samples/camera", frames[k], n, cameras.data());
       k = end;
     }
-    io::DoneMask mask(&f, so.count);
+    io::DoneMask mask(&f, so_.count);
     mask.MarkDone(frames);
-  };
-  RunFrameLoop(comm, pending, so.count, loop, compute, commit);
-  dist::CoordinateExceptions(comm, [&] {
-    if (comm.IsMainRank()) output.file.Commit();
-  });
-  if (comm.IsMainRank()) FC_INFO("synth samples: {} samples -> {}", so.count, o.out);
+  }
+
+  const SynthSamplesOptions& o_;
+  const synth::SampleOptions& so_;
+  const StageContext& ctx_;
+  const io::Config& resolved_;
+  const dist::Comm& comm_;
+  const bool crop_;  // framing = crop
+  rig::Rig rig_;
+  synth::Sparsity sparsity_;
+  int S_ = 0;
+  render::Camera camera_;
+  float distance_ = 0.f;
+  std::unique_ptr<const rig::RigEvaluator> evaluator_;
+  Eigen::Matrix<double, face::kNumLandmarks, 2, Eigen::RowMajor> crop_template_;
+  ResumableOutput output_;  // rank 0
+  std::vector<int64_t> pending_;
+  std::vector<SampleRenderer> renderers_;
+};
+
+void RunSynthSamples(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<SynthSamplesOptions>(flags, &ctx, &resolved);
+  SynthSamplesRun(o, ctx, resolved).Run();
 }
 
 }  // namespace
