@@ -272,6 +272,177 @@ struct QueryItem {
   face::Landmarks landmarks;
 };
 
+// The query by one frame of the ingest output the tree was built from.
+QueryItem QueryOfFrame(const io::H5File& frames, const std::string& frames_path, int64_t frame, int size) {
+  const std::vector<uint8_t> found =
+      frames.ReadVector<uint8_t>("/frames/found", frames.NumFrames("/frames/crop"));
+  if (frame >= static_cast<int64_t>(found.size())) {
+    throw InvalidInputError("[curate.query] frame " + std::to_string(frame) + " is outside " +
+                            frames_path + " (" + std::to_string(found.size()) + " frames)");
+  }
+  if (!found[frame]) {
+    throw InvalidInputError("[curate.query] frame " + std::to_string(frame) + " of " + frames_path +
+                            " has no face (see /frames/status)");
+  }
+  QueryItem q;
+  q.label = "frame " + std::to_string(frame);
+  ReadFrame(frames, frame, size, &q.crop, &q.landmarks);
+  return q;
+}
+
+// The queries by every face of another ingest output.
+std::vector<QueryItem> QueriesOfFrames(const std::string& path) {
+  std::vector<QueryItem> queries;
+  const io::H5File other = io::H5File::OpenRead(path);
+  const int other_size = CropSize(other);
+  for (int64_t row : FoundRows(other)) {
+    QueryItem q;
+    q.label = path + " frame " + std::to_string(row);
+    ReadFrame(other, row, other_size, &q.crop, &q.landmarks);
+    queries.push_back(std::move(q));
+  }
+  return queries;
+}
+
+// The queries by the face of an image, or by the first face of every image of a folder
+// (images without a face skipped); cropped as the ingest output's crops.
+std::vector<QueryItem> QueriesOfImages(const CurateQueryOptions& o, const face::CropOptions& crop_options) {
+  std::vector<std::string> files;
+  if (!o.image.empty()) {
+    files.push_back(o.image);
+  } else {
+    auto source = face::FrameSource::OpenImages(o.renders, 40000000);
+    files = source->Files();
+  }
+  face::FaceAnalyzerOptions ao;
+  ao.landmark_model = o.landmark_model;
+  face::FaceAnalyzer analyzer(ao);
+  std::vector<QueryItem> queries;
+  int64_t skipped = 0;
+  for (const std::string& file : files) {
+    const face::DecodedFrame d = face::ReadImageFile(file, 40000000);
+    if (!d.ok) {
+      if (!o.image.empty()) throw FileIOError(d.error);
+      FC_WARN("curate query: skipping {}", d.error);
+      ++skipped;
+      continue;
+    }
+    const std::vector<face::FaceBox> faces = analyzer.Detect(d.image);
+    if (faces.empty()) {
+      if (!o.image.empty()) throw FileIOError(file + ": no face found in the query image");
+      ++skipped;
+      continue;
+    }
+    const face::AlignedCrop crop =
+        face::AlignFace(d.image, analyzer.FitLandmarks(d.image, faces[0]), crop_options);
+    queries.push_back(QueryItem{file, crop.image, crop.landmarks});
+  }
+  if (skipped) FC_WARN("curate query: {} of {} images gave no face and were skipped", skipped, files.size());
+  return queries;
+}
+
+// The picks of all queries, as rows of the ingest output's /frames.
+struct QueryPicks {
+  curate::FeatureTable features;            // of the queries
+  std::vector<int32_t> picks_per_level;     // q_1 ... q_n used
+  std::vector<std::vector<int64_t>> per_query;
+  std::vector<int64_t> unique;              // unique, in query order
+  std::vector<int64_t> offsets{0}, all;     // query i picked all[offsets[i] : offsets[i+1]]
+  double query_s = 0.;                      // time in the tree
+};
+
+// The queries' features, then the tree.
+QueryPicks PickFrames(const Curation& c, const std::vector<QueryItem>& queries, const CurateQueryOptions& o) {
+  QueryPicks p;
+  std::vector<const Image8*> crop_ptrs;
+  std::vector<face::Landmarks> landmarks;
+  for (const QueryItem& q : queries) {
+    crop_ptrs.push_back(&q.crop);
+    landmarks.push_back(q.landmarks);
+  }
+  p.features = curate::ComputeFeatures(crop_ptrs, landmarks, 0);
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<std::vector<Eigen::VectorXf>> query_features;
+  for (size_t i = 0; i < queries.size(); ++i) {
+    query_features.push_back(QueryFeatures(p.features, static_cast<int>(i), c.kinds));
+  }
+  const curate::MultiQueryResult result = curate::QueryMany(c.tree, query_features, o.picks, o.unique_frames);
+  p.query_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  p.per_query.resize(queries.size());
+  for (size_t i = 0; i < queries.size(); ++i) {
+    for (int64_t item : result.per_query[i]) p.per_query[i].push_back(c.frame_of_item[item]);
+  }
+  for (int64_t item : result.unique) p.unique.push_back(c.frame_of_item[item]);
+  for (const auto& q : p.per_query) {
+    p.all.insert(p.all.end(), q.begin(), q.end());
+    p.offsets.push_back(static_cast<int64_t>(p.all.size()));
+  }
+  if (o.unique_frames > 0) {
+    std::string used;
+    for (int q : result.picks) used += (used.empty() ? "" : ", ") + std::to_string(q);
+    if (static_cast<int64_t>(p.unique.size()) < o.unique_frames) {
+      FC_WARN("curate query: {} unique frames asked for, the tree holds {}: all taken", o.unique_frames,
+              p.unique.size());
+    }
+    FC_INFO("curate query: picks widened to ({}) for {} unique frames", used, p.unique.size());
+  }
+  p.picks_per_level.assign(result.picks.begin(), result.picks.end());
+  return p;
+}
+
+// The picks file: the unique frames, each query's picks, labels and poses.
+void WritePicks(const CurateQueryOptions& o, const StageContext& ctx, const io::Config& resolved,
+                const std::string& frames_path, const io::H5File& frames,
+                const std::vector<QueryItem>& queries, const QueryPicks& p) {
+  const std::vector<int64_t> source_index =
+      frames.ReadVector<int64_t>("/frames/source_index", frames.NumFrames("/frames/crop"));
+  std::vector<int64_t> unique_source;
+  for (int64_t row : p.unique) unique_source.push_back(source_index[row]);
+
+  io::H5File out = io::H5File::CreateAtomic(o.out);
+  out.WriteProvenance(MakeProvenance(ctx, "curate query", resolved));
+  out.SetAttribute("/", "frames_file", std::filesystem::absolute(frames_path).string());
+  out.WriteVector("/picks/frames", p.unique);
+  out.SetAttribute("/picks/frames", "meaning", std::string("rows of the ingest output's /frames, unique, in query order"));
+  out.WriteVector("/picks/source_index", unique_source);
+  out.WriteVector("/queries/picks", p.all);
+  out.WriteVector("/queries/offsets", p.offsets);
+  out.SetAttribute("/queries/picks", "meaning", std::string("query i picked /queries/picks[offsets[i] : offsets[i+1]]"));
+  std::vector<std::string> labels;
+  for (const QueryItem& q : queries) labels.push_back(q.label);
+  out.WriteStrings("/queries/labels", labels);
+  out.WriteMatrix("/queries/pose", p.features.pose);
+  out.SetAttribute("/queries/pose", "columns", std::string("pitch, yaw (degrees; pitch > 0 face down, yaw > 0 face to its left)"));
+  out.WriteVector("/queries/picks_per_level", p.picks_per_level);
+  out.SetAttribute("/queries/picks_per_level", "meaning", std::string("q_1 ... q_n used (widened for unique_frames)"));
+  out.SetAttribute("/picks/frames", "unique_frames_asked", o.unique_frames);
+  out.Commit();
+}
+
+// The contact sheet: one row per query, its crop beside the crops of its picks.
+void WriteQuerySheet(const CurateQueryOptions& o, const io::H5File& frames, int size,
+                     const std::vector<QueryItem>& queries, const std::vector<std::vector<int64_t>>& per_query) {
+  size_t columns = 1;
+  for (const auto& p : per_query) columns = std::max(columns, std::min(p.size(), static_cast<size_t>(o.sheet_columns)) + 1);
+  std::vector<Image8> tiles;
+  const size_t rows = std::min<size_t>(queries.size(), static_cast<size_t>(o.sheet_rows));
+  for (size_t i = 0; i < rows; ++i) {
+    tiles.push_back(queries[i].crop);
+    for (size_t j = 0; j + 1 < columns; ++j) {
+      Image8 tile(size, size, 3, 0);
+      face::Landmarks unused;
+      if (j < per_query[i].size()) ReadFrame(frames, per_query[i][j], size, &tile, &unused);
+      tiles.push_back(std::move(tile));
+    }
+  }
+  render::ContactSheetOptions sheet_options;
+  sheet_options.columns = static_cast<int>(columns);
+  sheet_options.border = 2;
+  sheet_options.border_value = {40, 40, 40};
+  io::WriteImage(o.SheetPath(), render::ContactSheet(tiles, sheet_options));
+  FC_INFO("curate query: contact sheet (query | picks, one row per query) -> {}", o.SheetPath());
+}
+
 void RunCurateQuery(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -291,146 +462,20 @@ void RunCurateQuery(const StageFlags& flags, AppState* state) {
 
   std::vector<QueryItem> queries;
   if (o.frame >= 0) {
-    const std::vector<uint8_t> found =
-        frames.ReadVector<uint8_t>("/frames/found", frames.NumFrames("/frames/crop"));
-    if (o.frame >= static_cast<int64_t>(found.size())) {
-      throw InvalidInputError("[curate.query] frame " + std::to_string(o.frame) + " is outside " +
-                              frames_path + " (" + std::to_string(found.size()) + " frames)");
-    }
-    if (!found[o.frame]) {
-      throw InvalidInputError("[curate.query] frame " + std::to_string(o.frame) + " of " + frames_path +
-                              " has no face (see /frames/status)");
-    }
-    QueryItem q;
-    q.label = "frame " + std::to_string(o.frame);
-    ReadFrame(frames, o.frame, size, &q.crop, &q.landmarks);
-    queries.push_back(std::move(q));
+    queries.push_back(QueryOfFrame(frames, frames_path, o.frame, size));
   } else if (!o.query_frames.empty()) {
-    const io::H5File other = io::H5File::OpenRead(o.query_frames);
-    const int other_size = CropSize(other);
-    for (int64_t row : FoundRows(other)) {
-      QueryItem q;
-      q.label = o.query_frames + " frame " + std::to_string(row);
-      ReadFrame(other, row, other_size, &q.crop, &q.landmarks);
-      queries.push_back(std::move(q));
-    }
+    queries = QueriesOfFrames(o.query_frames);
   } else {
-    std::vector<std::string> files;
-    if (!o.image.empty()) {
-      files.push_back(o.image);
-    } else {
-      auto source = face::FrameSource::OpenImages(o.renders, 40000000);
-      files = source->Files();
-    }
-    face::FaceAnalyzerOptions ao;
-    ao.landmark_model = o.landmark_model;
-    face::FaceAnalyzer analyzer(ao);
-    int64_t skipped = 0;
-    for (const std::string& file : files) {
-      const face::DecodedFrame d = face::ReadImageFile(file, 40000000);
-      if (!d.ok) {
-        if (!o.image.empty()) throw FileIOError(d.error);
-        FC_WARN("curate query: skipping {}", d.error);
-        ++skipped;
-        continue;
-      }
-      const std::vector<face::FaceBox> faces = analyzer.Detect(d.image);
-      if (faces.empty()) {
-        if (!o.image.empty()) throw FileIOError(file + ": no face found in the query image");
-        ++skipped;
-        continue;
-      }
-      const face::AlignedCrop crop =
-          face::AlignFace(d.image, analyzer.FitLandmarks(d.image, faces[0]), crop_options);
-      queries.push_back(QueryItem{file, crop.image, crop.landmarks});
-    }
-    if (skipped) FC_WARN("curate query: {} of {} images gave no face and were skipped", skipped, files.size());
+    queries = QueriesOfImages(o, crop_options);
   }
   if (queries.empty()) throw FileIOError("curate query: no query face (no image gave a face)");
 
-  // Features of the queries, then the tree.
-  std::vector<const Image8*> crop_ptrs;
-  std::vector<face::Landmarks> landmarks;
-  for (const QueryItem& q : queries) {
-    crop_ptrs.push_back(&q.crop);
-    landmarks.push_back(q.landmarks);
-  }
-  const curate::FeatureTable features = curate::ComputeFeatures(crop_ptrs, landmarks, 0);
-  const auto t0 = std::chrono::steady_clock::now();
-  std::vector<std::vector<Eigen::VectorXf>> query_features;
-  for (size_t i = 0; i < queries.size(); ++i) {
-    query_features.push_back(QueryFeatures(features, static_cast<int>(i), c.kinds));
-  }
-  const curate::MultiQueryResult result = curate::QueryMany(c.tree, query_features, o.picks, o.unique_frames);
-  const double query_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::vector<std::vector<int64_t>> per_query(queries.size());
-  for (size_t i = 0; i < queries.size(); ++i) {
-    for (int64_t item : result.per_query[i]) per_query[i].push_back(c.frame_of_item[item]);
-  }
-  std::vector<int64_t> unique;
-  for (int64_t item : result.unique) unique.push_back(c.frame_of_item[item]);
-  std::vector<int64_t> offsets{0}, all;
-  for (const auto& p : per_query) {
-    all.insert(all.end(), p.begin(), p.end());
-    offsets.push_back(static_cast<int64_t>(all.size()));
-  }
-  if (o.unique_frames > 0) {
-    std::string used;
-    for (int q : result.picks) used += (used.empty() ? "" : ", ") + std::to_string(q);
-    if (static_cast<int64_t>(unique.size()) < o.unique_frames) {
-      FC_WARN("curate query: {} unique frames asked for, the tree holds {}: all taken", o.unique_frames,
-              unique.size());
-    }
-    FC_INFO("curate query: picks widened to ({}) for {} unique frames", used, unique.size());
-  }
-  const std::vector<int64_t> source_index =
-      frames.ReadVector<int64_t>("/frames/source_index", frames.NumFrames("/frames/crop"));
-  std::vector<int64_t> unique_source;
-  for (int64_t row : unique) unique_source.push_back(source_index[row]);
-
-  io::H5File out = io::H5File::CreateAtomic(o.out);
-  out.WriteProvenance(MakeProvenance(ctx, "curate query", resolved));
-  out.SetAttribute("/", "frames_file", std::filesystem::absolute(frames_path).string());
-  out.WriteVector("/picks/frames", unique);
-  out.SetAttribute("/picks/frames", "meaning", std::string("rows of the ingest output's /frames, unique, in query order"));
-  out.WriteVector("/picks/source_index", unique_source);
-  out.WriteVector("/queries/picks", all);
-  out.WriteVector("/queries/offsets", offsets);
-  out.SetAttribute("/queries/picks", "meaning", std::string("query i picked /queries/picks[offsets[i] : offsets[i+1]]"));
-  std::vector<std::string> labels;
-  for (const QueryItem& q : queries) labels.push_back(q.label);
-  out.WriteStrings("/queries/labels", labels);
-  out.WriteMatrix("/queries/pose", features.pose);
-  out.SetAttribute("/queries/pose", "columns", std::string("pitch, yaw (degrees; pitch > 0 face down, yaw > 0 face to its left)"));
-  out.WriteVector("/queries/picks_per_level", std::vector<int32_t>(result.picks.begin(), result.picks.end()));
-  out.SetAttribute("/queries/picks_per_level", "meaning", std::string("q_1 ... q_n used (widened for unique_frames)"));
-  out.SetAttribute("/picks/frames", "unique_frames_asked", o.unique_frames);
-  out.Commit();
-
-  if (o.contact_sheet) {
-    size_t columns = 1;
-    for (const auto& p : per_query) columns = std::max(columns, std::min(p.size(), static_cast<size_t>(o.sheet_columns)) + 1);
-    std::vector<Image8> tiles;
-    const size_t rows = std::min<size_t>(queries.size(), static_cast<size_t>(o.sheet_rows));
-    for (size_t i = 0; i < rows; ++i) {
-      tiles.push_back(queries[i].crop);
-      for (size_t j = 0; j + 1 < columns; ++j) {
-        Image8 tile(size, size, 3, 0);
-        face::Landmarks unused;
-        if (j < per_query[i].size()) ReadFrame(frames, per_query[i][j], size, &tile, &unused);
-        tiles.push_back(std::move(tile));
-      }
-    }
-    render::ContactSheetOptions sheet_options;
-    sheet_options.columns = static_cast<int>(columns);
-    sheet_options.border = 2;
-    sheet_options.border_value = {40, 40, 40};
-    io::WriteImage(o.SheetPath(), render::ContactSheet(tiles, sheet_options));
-    FC_INFO("curate query: contact sheet (query | picks, one row per query) -> {}", o.SheetPath());
-  }
+  const QueryPicks picks = PickFrames(c, queries, o);
+  WritePicks(o, ctx, resolved, frames_path, frames, queries, picks);
+  if (o.contact_sheet) WriteQuerySheet(o, frames, size, queries, picks.per_query);
   FC_INFO("curate query: {} quer{} -> {} unique frames ({:.3f} ms per query in the tree) -> {}",
-          queries.size(), queries.size() == 1 ? "y" : "ies", unique.size(),
-          1000.0 * query_s / queries.size(), o.out);
+          queries.size(), queries.size() == 1 ? "y" : "ies", picks.unique.size(),
+          1000.0 * picks.query_s / queries.size(), o.out);
 }
 
 }  // namespace
