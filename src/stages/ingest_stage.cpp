@@ -218,7 +218,7 @@ class IngestRun {
                              CreateIngestDatasets(f, n_, o_.crop_size);
                              if (!resumed) WriteSourceRecords(f, *sources_[0], selected_, o_);
                            },
-                           "/progress/detected");
+                           "frames", "/progress/detected");
     if (out_.up_to_date) {
       IngestSummary s;
       if (comm_.IsMainRank()) {

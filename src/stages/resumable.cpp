@@ -50,7 +50,7 @@ ResumableOutput OpenResumableOutput(const std::string& path, const std::string& 
 FrameOutput OpenFrameOutput(const StageContext& ctx, const io::Config& resolved,
                             const std::string& stage, const std::string& out, int64_t num_frames,
                             const std::function<void(io::H5File* file, bool resumed)>& prepare,
-                            const std::string& mask) {
+                            const std::string& units, const std::string& mask) {
   FrameOutput result;
   int32_t up_to_date = 0;
   dist::CoordinateExceptions(ctx.comm, [&] {
@@ -64,8 +64,8 @@ FrameOutput OpenFrameOutput(const StageContext& ctx, const io::Config& resolved,
     io::DoneMask done(&result.output.file, num_frames, mask);
     result.pending = done.Pending();
     if (result.output.resumed) {
-      FC_INFO("{}: continuing {}: {} of {} frames already done", stage, io::H5File::PartialPath(out),
-              done.NumDone(), num_frames);
+      FC_INFO("{}: continuing {}: {} of {} {} already done", stage, io::H5File::PartialPath(out),
+              done.NumDone(), num_frames, units);
     }
   });
   ctx.comm.Broadcast(&up_to_date, sizeof(up_to_date));

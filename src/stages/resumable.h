@@ -37,12 +37,14 @@ struct FrameOutput {
 };
 
 // Collective. Rank 0 opens (or continues) `out`, the output of `stage` over `num_frames`
-// frames; for a new or continued file, `prepare(file, resumed)` creates its datasets (and,
-// when not resumed, what is written once), and the done mask `mask` lists the pending frames.
-// Logs that a run continues or that the output is up to date.
+// work items (`units`: what the log calls them); for a new or continued file,
+// `prepare(file, resumed)` creates its datasets (and, when not resumed, what is written once),
+// and the done mask `mask` lists the pending items. Logs that a run continues or that the
+// output is up to date.
 FrameOutput OpenFrameOutput(const StageContext& ctx, const io::Config& resolved,
                             const std::string& stage, const std::string& out, int64_t num_frames,
                             const std::function<void(io::H5File* file, bool resumed)>& prepare,
+                            const std::string& units = "frames",
                             const std::string& mask = "/progress/done");
 
 }  // namespace facecap::stages

@@ -171,9 +171,7 @@ class SynthClipRun {
   void Run() {
     BuildPerson();
     S_ = person_.NumShapes();
-    if (OpenOutput()) {
-      if (comm_.IsMainRank()) FC_INFO("synth clip: {} is up to date", o_.out);
-    } else {
+    if (!OpenOutput()) {
       const int threads = ThreadsPerRank(o_.threads);
       workers_ = std::vector<ClipThread>(threads);
       FrameLoopOptions loop;
@@ -217,26 +215,16 @@ class SynthClipRun {
 
   // Rank 0 opens (or continues) the output; true on every rank when it is up to date.
   bool OpenOutput() {
-    int up_to_date = 0;
-    dist::CoordinateExceptions(comm_, [&] {
-      if (!comm_.IsMainRank()) return;
-      output_ = OpenResumableOutput(o_.out, resolved_.ToToml(), MakeProvenance(ctx_, "synth clip", resolved_));
-      if (output_.up_to_date) {
-        up_to_date = 1;
-        return;
-      }
-      io::H5File& f = output_.file;
-      CreateClipDatasets(&f, co_.size, co_.size, S_, co_.frames);
-      if (!output_.resumed) WriteRecords(&f);
-      io::DoneMask mask(&f, co_.frames);
-      pending_ = mask.Pending();
-      if (output_.resumed) {
-        FC_INFO("synth clip: continuing {}: {} of {} frames already done",
-                io::H5File::PartialPath(o_.out), mask.NumDone(), co_.frames);
-      }
-    });
-    comm_.Broadcast(&up_to_date, sizeof(up_to_date));
-    return up_to_date != 0;
+    FrameOutput opened = OpenFrameOutput(
+        ctx_, resolved_, "synth clip", o_.out, co_.frames,
+        [&](io::H5File* f, bool resumed) {
+          CreateClipDatasets(f, co_.size, co_.size, S_, co_.frames);
+          if (!resumed) WriteRecords(f);
+        },
+        "frames");
+    output_ = std::move(opened.output);
+    pending_ = std::move(opened.pending);
+    return opened.up_to_date;
   }
 
   // The person, the camera and the person's own rig, so that trackers can be scored against

@@ -127,10 +127,7 @@ class SynthSamplesRun {
     distance_ = render::FramingDistance(rig_, camera_, so_.fill);
     evaluator_ = std::make_unique<const rig::RigEvaluator>(rig_);
     crop_template_ = face::CropTemplate({so_.size, o_.crop_padding, o_.crop_raise});
-    if (OpenOutput()) {
-      if (comm_.IsMainRank()) FC_INFO("synth samples: {} is up to date", o_.out);
-      return;
-    }
+    if (OpenOutput()) return;
     const int threads = ThreadsPerRank(o_.threads);
     renderers_ = std::vector<SampleRenderer>(threads);
     FrameLoopOptions loop;
@@ -168,26 +165,16 @@ class SynthSamplesRun {
 
   // Rank 0 opens (or continues) the output; true on every rank when it is up to date.
   bool OpenOutput() {
-    int up_to_date = 0;
-    dist::CoordinateExceptions(comm_, [&] {
-      if (!comm_.IsMainRank()) return;
-      output_ = OpenResumableOutput(o_.out, resolved_.ToToml(), MakeProvenance(ctx_, "synth samples", resolved_));
-      if (output_.up_to_date) {
-        up_to_date = 1;
-        return;
-      }
-      io::H5File& f = output_.file;
-      CreateSampleDatasets(&f, so_.size, so_.size, S_, so_.count, o_.framing);
-      if (!output_.resumed) WriteSampleRecords(&f, rig_, camera_, distance_);
-      io::DoneMask mask(&f, so_.count);
-      pending_ = mask.Pending();
-      if (output_.resumed) {
-        FC_INFO("synth samples: continuing {}: {} of {} samples already done",
-                io::H5File::PartialPath(o_.out), mask.NumDone(), so_.count);
-      }
-    });
-    comm_.Broadcast(&up_to_date, sizeof(up_to_date));
-    return up_to_date != 0;
+    FrameOutput opened = OpenFrameOutput(
+        ctx_, resolved_, "synth samples", o_.out, so_.count,
+        [&](io::H5File* f, bool resumed) {
+          CreateSampleDatasets(f, so_.size, so_.size, S_, so_.count, o_.framing);
+          if (!resumed) WriteSampleRecords(f, rig_, camera_, distance_);
+        },
+        "samples");
+    output_ = std::move(opened.output);
+    pending_ = std::move(opened.pending);
+    return opened.up_to_date;
   }
 
   // Crop framing: the crop of the posed head's landmarks as ingest aligns it; *pose becomes

@@ -235,10 +235,7 @@ class TrackRun {
     ReadInputs();
     PlanFrames();
     tracker_ = std::make_unique<const track::Tracker>(rig_, model_colors_, SolverOptions());
-    if (OpenOutput()) {
-      if (comm_.IsMainRank()) FC_INFO("track: {} is up to date", o_.out);
-      return;
-    }
+    if (OpenOutput()) return;
     // Every rank reads its targets; HDF5 reads are serialized within the rank.
     dist::CoordinateExceptions(comm_, [&] { targets_file_ = io::H5File::OpenRead(o_.targets); });
     neutral_weights_ = Eigen::VectorXf::Zero(S_);
@@ -330,26 +327,16 @@ class TrackRun {
 
   // Rank 0 opens (or continues) the output; true on every rank when it is up to date.
   bool OpenOutput() {
-    int up_to_date = 0;
-    dist::CoordinateExceptions(comm_, [&] {
-      if (!comm_.IsMainRank()) return;
-      output_ = OpenResumableOutput(o_.out, resolved_.ToToml(), MakeProvenance(ctx_, "track", resolved_));
-      if (output_.up_to_date) {
-        up_to_date = 1;
-        return;
-      }
-      io::H5File& f = output_.file;
-      CreateTrackDatasets(&f, frames_, S_);
-      if (!output_.resumed) WriteTrackRecords(&f);
-      io::DoneMask mask(&f, units_);
-      pending_ = mask.Pending();
-      if (output_.resumed) {
-        FC_INFO("track: continuing {}: {} of {} work units already done",
-                io::H5File::PartialPath(o_.out), mask.NumDone(), units_);
-      }
-    });
-    comm_.Broadcast(&up_to_date, sizeof(up_to_date));
-    return up_to_date != 0;
+    FrameOutput opened = OpenFrameOutput(
+        ctx_, resolved_, "track", o_.out, units_,
+        [&](io::H5File* f, bool resumed) {
+          CreateTrackDatasets(f, frames_, S_);
+          if (!resumed) WriteTrackRecords(f);
+        },
+        "work units");
+    output_ = std::move(opened.output);
+    pending_ = std::move(opened.pending);
+    return opened.up_to_date;
   }
 
   // The shape names, the camera and where the targets come from (a new output).
