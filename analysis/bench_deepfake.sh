@@ -7,16 +7,10 @@
 #
 # Environment: SIZE (default 64), BATCH (global batch, default 16), STEPS (default 60),
 # REPEATS (default 3; the median counts).
-set -euo pipefail
-
-source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-build_dir="${FACECAP_BUILD_DIR:-${source_dir}/build}"
-if [[ $# -gt 0 && "$1" != "--" ]]; then
-  build_dir="$1"
-  shift
-fi
-[[ $# -gt 0 && "$1" == "--" ]] && shift
-facecap="${build_dir}/facecap"
+source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
+take_build_dir "$@"
+set -- ${rest[@]+"${rest[@]}"}
+require_facecap
 size="${SIZE:-64}"
 batch="${BATCH:-16}"
 steps="${STEPS:-60}"

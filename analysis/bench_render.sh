@@ -8,25 +8,11 @@
 # options go to the benchmark, e.g. `-- --rig rig.h5` for another head, `-- --size 256`.
 # Without --rig, the demo head (`facecap rig demo`) is measured, and an icosphere of similar
 # size for reference.
-set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
+take_build_dir "$@"
+set -- ${rest[@]+"${rest[@]}"}
 
-source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-build_dir="${FACECAP_BUILD_DIR:-${source_dir}/build}"
-if [[ $# -gt 0 && "$1" != "--" ]]; then
-  build_dir="$1"
-  shift
-fi
-[[ $# -gt 0 && "$1" == "--" ]] && shift
-
-if [[ -f "${build_dir}/build.ninja" || -f "${build_dir}/Makefile" ]]; then
-  build_log="$(mktemp)"
-  trap 'rm -f "${build_log}"' EXIT
-  if ! cmake --build "${build_dir}" --target facecap_bench_render >"${build_log}" 2>&1; then
-    tail -n 40 "${build_log}" >&2
-    echo "error: building facecap_bench_render in ${build_dir} failed" >&2
-    exit 1
-  fi
-fi
+build_targets facecap_bench_render
 bench="${build_dir}/facecap_bench_render"
 if [[ ! -x "${bench}" ]]; then
   echo "error: ${bench} not found; configure and build first (cmake -S . -B build -G Ninja)" >&2

@@ -10,31 +10,13 @@
 #
 # BUILD_DIR defaults to $FACECAP_BUILD_DIR, then build/ under the source tree. COUNT (default
 # 4000) sets the number of samples. The last line is one JSON object with the figures.
-set -euo pipefail
-
-source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-build_dir="${FACECAP_BUILD_DIR:-${source_dir}/build}"
-if [[ $# -gt 0 && "$1" != "--" ]]; then
-  build_dir="$1"
-  shift
-fi
-[[ $# -gt 0 && "$1" == "--" ]] && shift
+source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
+take_build_dir "$@"
+set -- ${rest[@]+"${rest[@]}"}
 count="${COUNT:-4000}"
 
-if [[ -f "${build_dir}/build.ninja" || -f "${build_dir}/Makefile" ]]; then
-  build_log="$(mktemp)"
-  if ! cmake --build "${build_dir}" --target facecap >"${build_log}" 2>&1; then
-    tail -n 40 "${build_log}" >&2
-    echo "error: building facecap in ${build_dir} failed" >&2
-    exit 1
-  fi
-  rm -f "${build_log}"
-fi
-facecap="${build_dir}/facecap"
-if [[ ! -x "${facecap}" ]]; then
-  echo "error: ${facecap} not found; configure and build first (cmake -S . -B build -G Ninja)" >&2
-  exit 1
-fi
+build_targets facecap
+require_facecap
 
 tmp_dir="$(mktemp -d)"
 trap 'rm -rf "${tmp_dir}"' EXIT

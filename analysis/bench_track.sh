@@ -9,17 +9,10 @@
 #   analysis/bench_track.sh [BUILD_DIR] [-- extra facecap track options]
 #
 # Environment: FRAMES (default 48), SIZE (128), REPEATS (3), WORK (a temporary folder).
-set -euo pipefail
-
-source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-build_dir="${FACECAP_BUILD_DIR:-${source_dir}/build}"
-if [[ $# -gt 0 && "$1" != "--" ]]; then
-  build_dir="$1"
-  shift
-fi
-[[ $# -gt 0 && "$1" == "--" ]] && shift
-facecap="${build_dir}/facecap"
-[[ -x "${facecap}" ]] || { echo "error: ${facecap} not built" >&2; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
+take_build_dir "$@"
+set -- ${rest[@]+"${rest[@]}"}
+require_facecap
 frames="${FRAMES:-48}"
 size="${SIZE:-128}"
 work="${WORK:-$(mktemp -d)}"

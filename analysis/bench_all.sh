@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# The speed figures of README's Figures table in one run, each beside the baseline measured in
+# the same run (1 rank against 2, the icosphere against the head, torch::mm's rate against a
+# training step's), and the deepfake trainer's arithmetic rate against this machine's
+# single-precision matrix-multiply rate. The accuracy figures come from their jobs
+# (jobs/demo.toml, jobs/video.toml, jobs/blendshapes.toml) and scripts; with an output folder
+# of the demo job (OUT_DEMO, default out/demo) its metrics are listed too.
+#
+#   analysis/bench_all.sh [BUILD_DIR]
+#
+# Writes every script's output to LOGS (default out/bench_all/) and the summary to
+# LOGS/summary.md. Takes about 10 minutes on 2 cores; run it on an otherwise idle machine.
+source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
+take_build_dir "$@"
+logs="$(mkdir -p "${LOGS:-out/bench_all}" && cd "${LOGS:-out/bench_all}" && pwd)"
+out_demo="${OUT_DEMO:-out/demo}"
+build_targets facecap facecap_bench_render facecap_bench_train_rate facecap_curate_test
+require_facecap
+
+summary="${logs}/summary.md"
+{
+  echo "# facecap speed figures, $(date -u +%Y-%m-%d), $(getconf _NPROCESSORS_ONLN) cores, $(git -C "${source_dir}" rev-parse --short HEAD 2>/dev/null || echo unknown)"
+  echo
+  echo "| figure | measured in this run (baseline beside it) | script |"
+  echo "| --- | --- | --- |"
+} > "${summary}"
+
+# run NAME COMMAND...: the command's output to LOGS/NAME.log; a failure is reported, not fatal.
+run() {
+  local name="$1"
+  shift
+  echo "== ${name}: $*" >&2
+  local start=${SECONDS}
+  if ! "$@" > "${logs}/${name}.log" 2>&1; then
+    echo "| ${name} | FAILED (see ${logs}/${name}.log) | |" >> "${summary}"
+    return 1
+  fi
+  echo "   done in $((SECONDS - start)) s" >&2
+}
+# row FIGURE SCRIPT LOG PATTERN...: the log's lines matching the patterns, joined.
+row() {
+  local figure="$1" script="$2" log="${logs}/$3"
+  shift 3
+  local found=""
+  for pattern in "$@"; do
+    local line
+    line="$(grep -E -m 1 -- "${pattern}" "${log}" 2>/dev/null | sed 's/^ *//; s/|/\//g' || true)"
+    [[ -n "${line}" ]] && found="${found:+${found}; }${line}"
+  done
+  echo "| ${figure} | ${found:-not found in ${log}} | \`${script}\` |" >> "${summary}"
+}
+
+analysis="${source_dir}/analysis"
+if run render "${analysis}/bench_render.sh" "${build_dir}"; then
+  row "render: renders per second per core, 128x128 (head / icosphere)" bench_render.sh render.log \
+    "segmentation" "^## icosphere" 
+fi
+if run synth "${analysis}/bench_synth.sh" "${build_dir}"; then
+  row "synth samples: 4,000 at 128x128, 1 and 2 ranks" bench_synth.sh synth.log "^1 rank" "^2 ranks" "speedup"
+fi
+if run ingest "${analysis}/bench_ingest.sh" "${build_dir}"; then
+  row "ingest: 640x480 H.264, 1 and 2 ranks" bench_ingest.sh ingest.log "^1 rank" "^2 ranks"
+fi
+if run curate "${analysis}/bench_curate.sh" "${build_dir}"; then
+  row "curate: tree build on 10,000 frames, queries" bench_curate.sh curate.log "tree build" "query"
+fi
+if run track "${analysis}/bench_track.sh" "${build_dir}"; then
+  row "track: solve per frame per core, 2 ranks against 1" bench_track.sh track.log \
+    "solve time per frame" "parallel efficiency"
+fi
+if run deepfake "${analysis}/bench_deepfake.sh" "${build_dir}"; then
+  row "deepfake training: 2 ranks against 1" bench_deepfake.sh deepfake.log "parallel efficiency"
+fi
+if run train_rate env OMP_NUM_THREADS=1 "${build_dir}/facecap_bench_train_rate"; then
+  row "deepfake training step against torch::mm, one thread" facecap_bench_train_rate train_rate.log \
+    "matmul peak" "deepfake training step"
+fi
+if [[ -f "${out_demo}/metrics.json" ]]; then
+  for name in metrics metrics_truerig metrics_oracle metrics_landmarks metrics_person; do
+    [[ -f "${out_demo}/${name}.json" ]] || continue
+    echo "| demo ${name} (from ${out_demo}) | $(tr -d '\n' < "${out_demo}/${name}.json" | cut -c1-400) | \`jobs/demo.toml\` |" >> "${summary}"
+  done
+fi
+cat "${summary}"
