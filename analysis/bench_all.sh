@@ -37,14 +37,16 @@ run() {
   fi
   echo "   done in $((SECONDS - start)) s" >&2
 }
-# row FIGURE SCRIPT LOG PATTERN...: the log's lines matching the patterns, joined.
+# row FIGURE SCRIPT LOG PATTERN...: the log's lines matching the patterns (every match of
+# each), joined.
 row() {
   local figure="$1" script="$2" log="${logs}/$3"
   shift 3
   local found=""
   for pattern in "$@"; do
     local line
-    line="$(grep -E -m 1 -- "${pattern}" "${log}" 2>/dev/null | sed 's/^ *//; s/|/\//g' || true)"
+    line="$(grep -E -o -- "${pattern}.*" "${log}" 2>/dev/null | sed 's/^ *//; s/|/\//g; s/  */ /g' |
+            paste -sd ';' - | sed 's/;/; /g' || true)"
     [[ -n "${line}" ]] && found="${found:+${found}; }${line}"
   done
   echo "| ${figure} | ${found:-not found in ${log}} | \`${script}\` |" >> "${summary}"
@@ -53,16 +55,18 @@ row() {
 analysis="${source_dir}/analysis"
 if run render "${analysis}/bench_render.sh" "${build_dir}"; then
   row "render: renders per second per core, 128x128 (head / icosphere)" bench_render.sh render.log \
-    "segmentation" "^## icosphere" 
+    "segmentation_renders_per_second"
 fi
 if run synth "${analysis}/bench_synth.sh" "${build_dir}"; then
-  row "synth samples: 4,000 at 128x128, 1 and 2 ranks" bench_synth.sh synth.log "^1 rank" "^2 ranks" "speedup"
+  row "synth samples: 4,000 at 128x128, 1 and 2 ranks (seconds, samples/s)" bench_synth.sh synth.log \
+    "1 rank x 1 thread" "2 ranks x 1 thread" "speedup"
 fi
 if run ingest "${analysis}/bench_ingest.sh" "${build_dir}"; then
-  row "ingest: 640x480 H.264, 1 and 2 ranks" bench_ingest.sh ingest.log "^1 rank" "^2 ranks"
+  row "ingest: 640x480 H.264, 1 and 2 ranks" bench_ingest.sh ingest.log "1 rank x 1 thread:" "2 ranks x 1 thread:"
 fi
 if run curate "${analysis}/bench_curate.sh" "${build_dir}"; then
-  row "curate: tree build on 10,000 frames, queries" bench_curate.sh curate.log "tree build" "query"
+  row "curate: tree build on 10,000 frames, queries" bench_curate.sh curate.log \
+    "tree build on" "query: [0-9]+ query"
 fi
 if run track "${analysis}/bench_track.sh" "${build_dir}"; then
   row "track: solve per frame per core, 2 ranks against 1" bench_track.sh track.log \
@@ -71,7 +75,7 @@ fi
 if run deepfake "${analysis}/bench_deepfake.sh" "${build_dir}"; then
   row "deepfake training: 2 ranks against 1" bench_deepfake.sh deepfake.log "parallel efficiency"
 fi
-if run train_rate env OMP_NUM_THREADS=1 "${build_dir}/facecap_bench_train_rate"; then
+if run train_rate env OMP_NUM_THREADS=1 GLOG_minloglevel=2 "${build_dir}/facecap_bench_train_rate"; then
   row "deepfake training step against torch::mm, one thread" facecap_bench_train_rate train_rate.log \
     "matmul peak" "deepfake training step"
 fi

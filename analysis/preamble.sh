@@ -20,6 +20,8 @@ take_build_dir() {
     rest=("${rest[@]:1}")
   fi
   if [[ ${#rest[@]} -gt 0 && "${rest[0]}" == "--" ]]; then rest=("${rest[@]:1}"); fi
+  # Absolute, so that it holds after a script changes folder.
+  if [[ -d "${build_dir}" ]]; then build_dir="$(cd "${build_dir}" && pwd)"; fi
   facecap="${build_dir}/facecap"
 }
 facecap="${build_dir}/facecap"
