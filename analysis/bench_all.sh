@@ -59,7 +59,7 @@ if run render "${analysis}/bench_render.sh" "${build_dir}"; then
 fi
 if run synth "${analysis}/bench_synth.sh" "${build_dir}"; then
   row "synth samples: 4,000 at 128x128, 1 and 2 ranks (seconds, samples/s)" bench_synth.sh synth.log \
-    "1 rank x 1 thread" "2 ranks x 1 thread" "speedup"
+    "1 rank x 1 thread" "2 ranks x 1 thread" "speedup 1 -> 2"
 fi
 if run ingest "${analysis}/bench_ingest.sh" "${build_dir}"; then
   row "ingest: 640x480 H.264, 1 and 2 ranks" bench_ingest.sh ingest.log "1 rank x 1 thread:" "2 ranks x 1 thread:"
@@ -77,7 +77,7 @@ if run deepfake "${analysis}/bench_deepfake.sh" "${build_dir}"; then
 fi
 if run train_rate env OMP_NUM_THREADS=1 GLOG_minloglevel=2 "${build_dir}/facecap_bench_train_rate"; then
   row "deepfake training step against torch::mm, one thread" facecap_bench_train_rate train_rate.log \
-    "matmul peak" "deepfake training step"
+    "^matmul peak" "^deepfake training step"
 fi
 if [[ -f "${out_demo}/metrics.json" ]]; then
   for name in metrics metrics_truerig metrics_oracle metrics_landmarks metrics_person; do
