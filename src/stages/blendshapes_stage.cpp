@@ -206,6 +206,10 @@ struct BlendshapesTrainOptions {
   float average_fraction = 0.f;       // each stage ends with the mean of its last steps' parameters
   nn::BlendshapeNetOptions net;       // networks and losses
 
+  // --help's sections, by the first key of each.
+  static std::vector<std::pair<std::string, std::string>> HelpSections() {
+    return {{"scans", "Data and schedule"}, {"channels", "Networks"}, {"learning_rate", "Losses and optimizer"}};
+  }
   template <class V>
   void Visit(V&& v) {
     v("scans", scans, "scan database (HDF5, from scans synth or scans import)");

@@ -37,6 +37,13 @@ struct SynthClipOptions {
   int threads = 0;                   // OpenMP threads per rank (0: cores / ranks on the node)
   synth::ClipOptions clip;           // the performance, appearance and camera
 
+  // --help's sections, by the first key of each.
+  static std::vector<std::pair<std::string, std::string>> HelpSections() {
+    return {{"rig", "Input and output"}, {"frames", "Clip"}, {"identity_seed", "Person and seeds"},
+            {"expression_seconds", "Expressions"}, {"pose_seconds", "Head motion"},
+            {"light_period_seconds", "Lighting"}, {"texture_size", "Skin texture"},
+            {"exposure_min", "Camera degradations"}};
+  }
   template <class V>
   void Visit(V&& v) {
     v("rig", rig, "rig file (HDF5); identity_seed makes a person of it");

@@ -61,6 +61,10 @@ struct TrackOptions {
   int threads = 0;                        // OpenMP threads per rank (0: cores / node ranks)
   track::TrackerOptions tracker = TrackStageSolverDefaults();  // the solver
 
+  // --help's sections, by the first key of each.
+  static std::vector<std::pair<std::string, std::string>> HelpSections() {
+    return {{"rig", "Inputs and output"}, {"init", "Start and work"}, {"objective", "Solver"}};
+  }
   template <class V>
   void Visit(V&& v) {
     v("rig", rig, "rig file (HDF5)");
