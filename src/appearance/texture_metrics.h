@@ -1,0 +1,42 @@
+// How close a captured texture is to a known one, measured where a face capture matters.
+#ifndef FACECAP_APPEARANCE_TEXTURE_METRICS_H_
+#define FACECAP_APPEARANCE_TEXTURE_METRICS_H_
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "render/texel_map.h"
+#include "rig/rig.h"
+#include "util/image.h"
+
+namespace facecap::appearance {
+
+// Per texel of `texels` (row-major), whether it is in the face region: its triangle's region
+// is skin, nose, brows, eyelids or lips (not hair, neck, eyes or the mouth's inside), and its
+// point on the neutral mesh lies, seen from the front, inside the convex hull of the rig's 68
+// landmarks (brows to chin, ear to ear), on the front of the head (z above the mean of the
+// jaw-line ends, landmarks 0 and 16). The rig needs its 68 landmarks and region names.
+std::vector<uint8_t> FaceRegionMask(const rig::Rig& rig, const render::TexelMap& texels);
+
+struct TextureComparison {
+  int64_t face_texels = 0;     // texels in the region
+  double coverage = 0.;        // fraction of them the capture covers (confidence > 0)
+  Eigen::Vector3d gain{1., 1., 1.};  // per-channel gain applied to the capture (least squares)
+  double psnr_db = 0.;         // over covered region texels, linear RGB, after the gain
+  // The same for a flat texture of the capture's mean colour over those texels, after its own
+  // gain: the score of an answer that knows nothing of the face's detail.
+  double psnr_flat_db = 0.;
+};
+
+// Compares `captured` (3 channels, linear RGB) with `truth` over the texels of `mask` that
+// `confidence` (1 channel, > 0 where captured) marks as covered. One gain per colour channel
+// (least squares) maps the capture onto the truth first: lighting baked into any capture
+// scales each channel. Both textures must have the mask's size; InvalidInputError otherwise.
+TextureComparison CompareTextures(const ImageF& captured, const ImageF& confidence,
+                                  const ImageF& truth, const std::vector<uint8_t>& mask);
+
+}  // namespace facecap::appearance
+
+#endif  // FACECAP_APPEARANCE_TEXTURE_METRICS_H_
