@@ -177,30 +177,16 @@ class SynthSamplesRun {
     return opened.up_to_date;
   }
 
-  // Crop framing: the crop of the posed head's landmarks as ingest aligns it; *pose becomes
-  // the head seen through the crop's camera, which is returned.
-  render::Camera CropCamera(const synth::SampleParams& p, SampleRenderer* r, rig::RigidPose* pose) const {
-    evaluator_->EvaluatePosed(*pose, p.weights, &r->posed);
-    face::Landmarks lm;
-    for (int l = 0; l < kNumLandmarks; ++l) {
-      lm.row(l) = (camera_.Project(r->posed.row(rig_.landmarks[l]).transpose()).head<2>() -
-                   Eigen::Vector2f(0.5f, 0.5f)).transpose();
-    }
-    const std::vector<int>& idx = face::CropAlignmentLandmarks();
-    const face::Similarity2 m =
-        face::FitSimilarity(face::SelectRows(lm, idx), face::SelectRows(crop_template_, idx));
-    const render::CropView view = render::CameraOfCrop(camera_, m.Matrix().cast<float>(), so_.size, so_.size);
-    *pose = PoseInCrop(*pose, view);
-    return view.camera;
-  }
-
   // Draws and renders sample `index`: segmentation, weights, pose, landmarks and camera.
   std::vector<uint8_t> RenderSample(int64_t index, int thread) {
     SampleRenderer& r = renderers_[thread];
     const synth::SampleParams p = synth::DrawSample(sparsity_, so_, S_, index);
     rig::RigidPose pose = render::FramedPose(rig_, distance_, p.pitch, p.yaw);
     render::Camera view_camera = camera_;
-    if (crop_) view_camera = CropCamera(p, &r, &pose);
+    if (crop_) {
+      view_camera = IngestCropCamera(rig_, *evaluator_, camera_, crop_template_, so_.size,
+                                     p.weights, &pose, &r.posed);
+    }
     evaluator_->EvaluatePosed(pose, p.weights, &r.posed);
     render::Rasterize(r.posed, rig_.triangles, view_camera, &r.gbuffer);
     render::RenderSegmentation(r.gbuffer, rig_.triangle_region, rig_.regions,
