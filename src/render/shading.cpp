@@ -36,6 +36,11 @@ float EncodeSrgb(float linear) {
                               : 1.055f * std::pow(linear, 1.f / 2.4f) - 0.055f;
 }
 
+// Inverse of EncodeSrgb.
+float DecodeSrgb(float encoded) {
+  return encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
+}
+
 }  // namespace
 
 bool ShadingOptions::Check(std::string* why) const {
@@ -220,6 +225,15 @@ void LinearToImage8(const ImageF& linear, bool encode_srgb, Image8* image) {
     if (encode_srgb) value = EncodeSrgb(value);
     image->data[i] = static_cast<uint8_t>(value * 255.f + 0.5f);
   }
+}
+
+void Image8ToLinear(const Image8& image, bool decode_srgb, ImageF* linear) {
+  float table[256];
+  for (int v = 0; v < 256; ++v) {
+    table[v] = decode_srgb ? DecodeSrgb(v / 255.f) : v / 255.f;
+  }
+  EnsureImageShape(image.width, image.height, image.channels, linear);
+  for (size_t i = 0; i < image.data.size(); ++i) linear->data[i] = table[image.data[i]];
 }
 
 }  // namespace facecap::render

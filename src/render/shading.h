@@ -126,6 +126,16 @@ void RenderShaded(const GBuffer& gbuffer, const rig::Vertices& camera_vertices,
 //   image        same shape, 8 bits per channel
 void LinearToImage8(const ImageF& linear, bool encode_srgb, Image8* image);
 
+// The inverse of LinearToImage8: 8-bit values to [0, 1], through the inverse sRGB transfer
+// curve when decode_srgb.
+//
+// Inputs:
+//   image        8-bit image (any channel count)
+//   decode_srgb  undo the sRGB transfer function
+// Outputs:
+//   linear       same shape, float
+void Image8ToLinear(const Image8& image, bool decode_srgb, ImageF* linear);
+
 }  // namespace facecap::render
 
 #endif  // FACECAP_RENDER_SHADING_H_

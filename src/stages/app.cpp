@@ -23,6 +23,7 @@ void RegisterAll(CLI::App* app, AppState* state) {
   RegisterBlendshapes(app, state);
   RegisterTrack(app, state);
   RegisterPerson(app, state);
+  RegisterAppearance(app, state);
   RegisterEval(app, state);
   RegisterRun(app, state);
 }

@@ -49,13 +49,6 @@ const char* const kImageDatasets[] = {"/frames/image", "/frames/crop", "/samples
 constexpr int kPreviewRows = 4;  // image pairs in the preview grid
 
 // [deepfake.train]
-// OUT without its .h5, followed by suffix.
-std::string WithSuffix(const std::string& path, const std::string& suffix) {
-  std::string stem = path;
-  if (stem.size() > 3 && stem.compare(stem.size() - 3, 3, ".h5") == 0) stem.resize(stem.size() - 3);
-  return stem + suffix;
-}
-
 struct DeepfakeTrainOptions {
   std::string a = "samples.h5";                  // domain A: synthetic segmentation renders
   std::string b = "frames.h5";                   // domain B: real frames (ingest) or a wild clip

@@ -13,10 +13,14 @@
 #include <map>
 #include <sstream>
 
+#include "appearance/texture_metrics.h"
 #include "io/hdf5.h"
 #include "io/rig_io.h"
+#include "io/texture_file.h"
 #include "render/camera.h"
 #include "render/framing.h"
+#include "render/shading.h"
+#include "render/texel_map.h"
 #include "rig/compare.h"
 #include "rig/evaluate.h"
 #include "stages/cli.h"
@@ -618,6 +622,70 @@ void RunEvalPerson(const StageFlags& flags, AppState* state) {
   }
 }
 
+// [eval.appearance]
+struct EvalAppearanceOptions {
+  std::string truth = "clip.h5";      // a synthetic clip: its /identity/albedo and /rig
+  std::string texture = "texture.h5"; // appearance gather output
+  bool json = true;                   // print one JSON object (else a table)
+  std::string out = "";               // also write the JSON to this file
+
+  template <class V>
+  void Visit(V&& v) {
+    v("truth", truth, "synthetic clip whose /identity/albedo is the true albedo and /rig the person");
+    v("texture", texture, "captured texture (appearance gather output)");
+    v("json", json, "print one JSON object (false: a readable table)");
+    v("out", out, "also write the JSON object to this file (empty: none)");
+  }
+  bool Check(std::string* why) const {
+    if (truth.empty() || texture.empty()) { *why = "truth and texture are required"; return false; }
+    return true;
+  }
+};
+
+void RunEvalAppearance(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<EvalAppearanceOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  const rig::Rig truth_rig = io::ReadRigFile(o.truth);
+  const ImageF truth = io::ReadColorTexture(o.truth, io::kTrueAlbedoPath);
+  const ImageF captured = io::ReadColorTexture(o.texture, io::kTextureAlbedoPath);
+  const int N = captured.width;
+  ImageF confidence(N, N, 1);
+  confidence.data = io::H5File::OpenRead(o.texture).Read<float>(io::kTextureConfidencePath, {N, N});
+  // The truth at the capture's resolution (bilinear, as a renderer samples it).
+  ImageF truth_resampled(N, N, 3);
+  for (int y = 0; y < N; ++y) {
+    for (int x = 0; x < N; ++x) {
+      const Eigen::Vector3f c = render::SampleBilinear(truth, (x + 0.5f) / N, 1.f - (y + 0.5f) / N);
+      for (int k = 0; k < 3; ++k) truth_resampled.at(x, y, k) = c[k];
+    }
+  }
+  const render::TexelMap texels = render::BakeTexelMap(truth_rig, N);
+  const appearance::TextureComparison m = appearance::CompareTextures(
+      captured, confidence, truth_resampled, appearance::FaceRegionMask(truth_rig, texels));
+  std::ostringstream js;
+  js << "{\"psnr_face_db\": " << JsonNumber(m.psnr_db)
+     << ", \"psnr_flat_db\": " << JsonNumber(m.psnr_flat_db)
+     << ", \"coverage\": " << JsonNumber(m.coverage) << ", \"face_texels\": " << m.face_texels
+     << ", \"gain\": [" << JsonNumber(m.gain[0]) << ", " << JsonNumber(m.gain[1]) << ", "
+     << JsonNumber(m.gain[2]) << "], \"texture_size\": " << N
+     << ", \"region\": \"face (brows to chin, ear to ear; no eyes, hair or mouth inside), "
+        "linear RGB after one gain per channel, over covered texels\"}";
+  if (o.json) {
+    std::cout << js.str() << std::endl;
+  } else {
+    std::printf("face-region PSNR against the true albedo (%lld texels, %.1f%% covered):\n"
+                "  captured texture  %.2f dB\n  flat colour       %.2f dB\n",
+                static_cast<long long>(m.face_texels), 100. * m.coverage, m.psnr_db, m.psnr_flat_db);
+  }
+  if (!o.out.empty()) {
+    std::ofstream file(o.out);
+    if (!file) throw OutputError("eval appearance: cannot write " + o.out);
+    file << js.str() << "\n";
+  }
+}
+
 }  // namespace
 
 void RegisterEval(CLI::App* app, AppState* state) {
@@ -651,6 +719,14 @@ void RegisterEval(CLI::App* app, AppState* state) {
       "and the landmarks-only fit's; one JSON object",
       PathKeys{{"truth", "person"}, {{"out", OutputKind::kText}}},
       RunEvalPerson);
+  AddStage<EvalAppearanceOptions>(
+      eval, state, "appearance", "eval.appearance", "eval appearance",
+      "A captured texture against a synthetic person's true albedo: PSNR over the face region "
+      "of the UV map after one gain per colour channel (the clip's lighting is baked into any "
+      "capture), beside a flat texture of the capture's mean colour, and the coverage; one JSON "
+      "object",
+      PathKeys{{"truth", "texture"}, {{"out", OutputKind::kText}}},
+      RunEvalAppearance);
 }
 
 }  // namespace facecap::stages

@@ -180,6 +180,7 @@ void RegisterBlendshapes(CLI::App* app, AppState* state);
 void RegisterTrack(CLI::App* app, AppState* state);
 // `person fit` under a `person` subcommand.
 void RegisterPerson(CLI::App* app, AppState* state);
+void RegisterAppearance(CLI::App* app, AppState* state);
 // `eval track` (and other metrics) under an `eval` subcommand, made when absent.
 void RegisterEval(CLI::App* app, AppState* state);
 void RegisterRun(CLI::App* app, AppState* state);

@@ -9,6 +9,12 @@
 namespace facecap::stages {
 namespace fs = std::filesystem;
 
+std::string WithSuffix(const std::string& path, const std::string& suffix) {
+  std::string stem = path;
+  if (stem.size() > 3 && stem.compare(stem.size() - 3, 3, ".h5") == 0) stem.resize(stem.size() - 3);
+  return stem + suffix;
+}
+
 std::string CanonicalPath(const std::string& path) {
   std::error_code ec;
   fs::path absolute = fs::absolute(path, ec);

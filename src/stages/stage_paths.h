@@ -47,6 +47,9 @@ struct StagePaths {
   std::vector<NamedPath> outputs;
 };
 
+// `path` without its .h5, followed by suffix: the name of a file written beside an output.
+std::string WithSuffix(const std::string& path, const std::string& suffix);
+
 // The path with `.`, `..` and symbolic links resolved (as far as it exists), absolute.
 std::string CanonicalPath(const std::string& path);
 

@@ -8,6 +8,7 @@
 
 #include "io/image_io.h"
 #include "io/rig_io.h"
+#include "io/texture_file.h"
 #include "render/contact_sheet.h"
 #include "rig/demo_head.h"
 #include "stages/cli.h"
@@ -247,6 +248,7 @@ class SynthClipRun {
     f->SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(renderer_->distance()));
     f->SetAttribute("/camera/intrinsics", "fps", static_cast<double>(co_.fps));
     WriteIdentity(f, person_, co_, renderer_->colors());
+    io::WriteColorTexture(f, io::kTrueAlbedoPath, renderer_->albedo_texture());
     io::WriteRig(person_, f, "/rig");
   }
 

@@ -1,0 +1,447 @@
+// facecap appearance: the person's texture from images of their head (paper 000 Sec. 5).
+//   turntable  renders of a rig over a pitch x yaw grid (Sec. 5.2), framed as ingest crops
+//              footage, each with its U(I) image, triangle ids and depth; spread across ranks,
+//              identical for any rank count, resumable
+//   gather     the colours of images of those views (the turntable's own renders, or their
+//              translations by a deepfake) gathered into a texture (Sec. 5.4)
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "appearance/photon_gather.h"
+#include "face/align.h"
+#include "io/hdf5.h"
+#include "io/image_io.h"
+#include "io/rig_io.h"
+#include "io/texture_file.h"
+#include "render/camera.h"
+#include "render/contact_sheet.h"
+#include "render/framing.h"
+#include "render/gbuffer_images.h"
+#include "render/rasterizer.h"
+#include "render/shading.h"
+#include "render/texel_map.h"
+#include "render/turntable.h"
+#include "rig/evaluate.h"
+#include "stages/cli.h"
+#include "stages/frame_loop.h"
+#include "stages/ingested_frames.h"
+#include "stages/registry.h"
+#include "stages/resumable.h"
+#include "util/bytes.h"
+#include "util/errors.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+namespace {
+
+constexpr double kDegree = 3.14159265358979323846 / 180.;
+
+// [appearance.turntable]
+struct AppearanceTurntableOptions {
+  std::string rig = "person.h5";      // the person's rig (person fit), or any rig file
+  std::string out = "turntable.h5";   // output file
+  int views = 200;                    // number of views
+  double pitch_min_deg = -25.;        // pitch range of the grid (deg)
+  double pitch_max_deg = 25.;
+  double yaw_min_deg = -70.;          // yaw range of the grid (deg)
+  double yaw_max_deg = 70.;
+  int size = 128;                     // render width and height (pixels)
+  double fov_deg = 20.;               // vertical field of view of the camera that films the head
+  double fill = 0.7;                  // fraction of the frame height the face spans when frontal
+  double crop_padding = 0.4;          // ingest's crop_padding of the crops the views imitate
+  double crop_raise = 0.04;           // ingest's crop_raise
+  std::string texture = "";           // albedo texture file ("": a plain albedo)
+  std::string texture_dataset = "/texture/albedo";  // its dataset (io/texture_file.h)
+  std::string lighting = "lit";       // lit: ambient and a key light; none: the albedo itself
+  int batch = 16;                     // views per rank per round (a checkpoint per round)
+  int threads = 0;                    // OpenMP threads per rank (0: cores / ranks on the node)
+  std::string sheet = "";             // contact sheet PNG ("": OUT with _sheet.png; "none")
+  int sheet_count = 40;               // views in the sheet, evenly spread
+
+  template <class V>
+  void Visit(V&& v) {
+    v("rig", rig, "the person's rig file (HDF5, person fit's output or any rig file)");
+    v("out", out, "output file (HDF5)");
+    v("views", views, "number of views over the pitch x yaw grid (paper: about 200)");
+    v("pitch_min_deg", pitch_min_deg, "lowest pitch of the grid (deg)");
+    v("pitch_max_deg", pitch_max_deg, "highest pitch of the grid (deg)");
+    v("yaw_min_deg", yaw_min_deg, "lowest yaw of the grid (deg)");
+    v("yaw_max_deg", yaw_max_deg, "highest yaw of the grid (deg)");
+    v("size", size, "render width and height (pixels); the deepfake's crop size");
+    v("fov_deg", fov_deg, "vertical field of view of the camera that films the head (deg)");
+    v("fill", fill, "fraction of the frame height the face spans when frontal");
+    v("crop_padding", crop_padding, "ingest's crop_padding: views are framed as its crops");
+    v("crop_raise", crop_raise, "ingest's crop_raise");
+    v("texture", texture, "albedo texture file (\"\": a plain skin-coloured albedo)");
+    v("texture_dataset", texture_dataset, "the texture's dataset in that file");
+    v("lighting", lighting, "lit: ambient light and a key light; none: the albedo itself");
+    v("batch", batch, "views per rank per round; each round is a checkpoint");
+    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
+    v("sheet", sheet, "contact sheet PNG of the views (\"\": OUT with _sheet.png; none: no sheet)");
+    v("sheet_count", sheet_count, "views in the contact sheet, evenly spread over the grid");
+  }
+  bool Check(std::string* why) const {
+    if (views < 1) { *why = "views must be at least 1"; return false; }
+    if (!(pitch_min_deg <= pitch_max_deg) || !(yaw_min_deg <= yaw_max_deg)) {
+      *why = "the pitch and yaw ranges need min <= max";
+      return false;
+    }
+    if (std::max(std::abs(pitch_min_deg), std::abs(pitch_max_deg)) >= 90. ||
+        std::max(std::abs(yaw_min_deg), std::abs(yaw_max_deg)) >= 90.) {
+      *why = "pitch and yaw must stay within (-90, 90) deg";
+      return false;
+    }
+    if (size < 16) { *why = "size must be at least 16"; return false; }
+    if (!(fov_deg > 1. && fov_deg < 120.)) { *why = "fov_deg must be in (1, 120)"; return false; }
+    if (!(fill > 0. && fill <= 1.)) { *why = "fill must be in (0, 1]"; return false; }
+    if (lighting != "lit" && lighting != "none") {
+      *why = "lighting must be lit or none, not " + lighting;
+      return false;
+    }
+    if (batch < 1 || threads < 0 || sheet_count < 1) {
+      *why = "batch and sheet_count must be positive, threads >= 0";
+      return false;
+    }
+    face::CropOptions crop{size, crop_padding, crop_raise};
+    return crop.Check(why);
+  }
+  std::string SheetPath() const { return sheet.empty() ? WithSuffix(out, "_sheet.png") : sheet; }
+  void DerivedOutputs(std::vector<NamedPath>* outputs) const {
+    if (sheet != "none") outputs->push_back({"sheet", SheetPath(), OutputKind::kImage});
+  }
+};
+
+// The per-view datasets of a turntable file.
+void CreateViewDatasets(io::H5File* f, int size, int64_t views) {
+  f->CreateFrames<uint8_t>("/frames/image", {size, size, 3}, views, 16, 1);
+  f->SetAttribute("/frames/image", "layout", std::string("view, y, x, RGB (sRGB)"));
+  f->CreateFrames<float>("/frames/uv", {size, size, 3}, views, 4);
+  f->SetAttribute("/frames/uv", "layout",
+                  std::string("view, y, x, (u, v, coverage): U(I), the texture coordinates of "
+                              "the visible surface (OBJ convention), coverage 1 on the head"));
+  f->CreateFrames<int32_t>("/frames/triangle", {size, size}, views, 4);
+  f->SetAttribute("/frames/triangle", "layout", std::string("view, y, x: visible triangle, -1 none"));
+  f->CreateFrames<float>("/frames/depth", {size, size}, views, 4);
+  f->SetAttribute("/frames/depth", "units", std::string("cm from the camera; 0 where no head"));
+  f->CreateFrames<float>("/frames/pose", {3}, views, 1024);
+  f->SetAttribute("/frames/pose", "columns", std::string("pitch, yaw, roll (rad), in the view's camera"));
+  f->CreateFrames<float>("/frames/camera", {4}, views, 1024);
+  f->SetAttribute("/frames/camera", "columns", std::string("fx, fy, cx, cy (pixels) of the view"));
+}
+
+// Per-thread rendering state.
+struct ViewRenderer {
+  render::GBuffer gbuffer;
+  rig::Vertices posed, normals;
+  ImageF shaded, uv, depth;
+  render::ImageI triangles;
+  Image8 image;
+};
+
+class TurntableRun {
+ public:
+  TurntableRun(const AppearanceTurntableOptions& o, const StageContext& ctx, const io::Config& resolved)
+      : o_(o), ctx_(ctx), resolved_(resolved), comm_(ctx.comm) {}
+
+  void Run() {
+    dist::CoordinateExceptions(comm_, [&] {
+      rig_ = io::ReadRigFile(o_.rig);
+      if (rig_.landmarks.size() != 68) {
+        throw FileIOError(o_.rig + ": the rig has " + std::to_string(rig_.landmarks.size()) +
+                          " landmarks; turntables are framed by the 68 iBUG landmarks");
+      }
+      if (rig_.uvs.rows() == 0) throw FileIOError(o_.rig + ": the rig has no texture coordinates");
+      if (!o_.texture.empty()) texture_ = io::ReadColorTexture(o_.texture, o_.texture_dataset);
+    });
+    camera_ = render::Camera::FromFov(o_.size, o_.size, static_cast<float>(o_.fov_deg));
+    distance_ = render::FramingDistance(rig_, camera_, static_cast<float>(o_.fill));
+    angles_ = render::TurntableAngles(o_.views, static_cast<float>(o_.pitch_min_deg * kDegree),
+                                      static_cast<float>(o_.pitch_max_deg * kDegree),
+                                      static_cast<float>(o_.yaw_min_deg * kDegree),
+                                      static_cast<float>(o_.yaw_max_deg * kDegree));
+    evaluator_ = std::make_unique<const rig::RigEvaluator>(rig_);
+    crop_template_ = face::CropTemplate({o_.size, o_.crop_padding, o_.crop_raise});
+    shading_.albedo_source = texture_.empty() ? render::AlbedoSource::kConstant
+                                              : render::AlbedoSource::kTexture;
+    if (o_.lighting == "none") {
+      lighting_.ambient = Eigen::Vector3f::Ones();
+      lighting_.directional_lights.clear();
+      shading_.specular_strength = 0.f;
+    }
+    FrameOutput opened = OpenFrameOutput(
+        ctx_, resolved_, "appearance turntable", o_.out, o_.views,
+        [&](io::H5File* f, bool resumed) {
+          CreateViewDatasets(f, o_.size, o_.views);
+          if (!resumed) io::WriteRig(rig_, f, "/rig");
+        },
+        "views");
+    output_ = std::move(opened.output);
+    if (!opened.up_to_date) {
+      const int threads = ThreadsPerRank(o_.threads);
+      renderers_ = std::vector<ViewRenderer>(threads);
+      FrameLoopOptions loop;
+      loop.what = "appearance turntable";
+      loop.batch = o_.batch;
+      loop.threads = threads;
+      RunFrameLoop(
+          comm_, opened.pending, o_.views, loop,
+          [&](int64_t view, int thread) { return RenderView(view, thread); },
+          [&](const std::vector<int64_t>& views, const std::vector<std::vector<uint8_t>>& results) {
+            CommitViews(views, results);
+          });
+      dist::CoordinateExceptions(comm_, [&] {
+        if (comm_.IsMainRank()) output_.file.Commit();
+      });
+    }
+    if (comm_.IsMainRank()) {
+      if (o_.sheet != "none") WriteSheet();
+      FC_INFO("appearance turntable: {} views -> {}", o_.views, o_.out);
+    }
+  }
+
+ private:
+  // View `view`: the rig at neutral, framed as an ingest crop, rendered.
+  std::vector<uint8_t> RenderView(int64_t view, int thread) {
+    ViewRenderer& r = renderers_[thread];
+    const auto [pitch, yaw] = angles_[view];
+    rig::RigidPose pose = render::FramedPose(rig_, distance_, pitch, yaw);
+    const Eigen::VectorXf weights = Eigen::VectorXf::Zero(rig_.NumShapes());
+    const render::Camera camera = IngestCropCamera(rig_, *evaluator_, camera_, crop_template_,
+                                                   o_.size, weights, &pose, &r.posed);
+    evaluator_->EvaluatePosed(pose, weights, &r.posed);
+    render::Rasterize(r.posed, rig_.triangles, camera, &r.gbuffer);
+    render::VertexNormals(r.posed, rig_.triangles, &r.normals);
+    render::RenderShaded(r.gbuffer, r.posed, r.normals, rig_, lighting_, shading_,
+                         texture_.empty() ? nullptr : &texture_, nullptr, &r.shaded);
+    render::LinearToImage8(r.shaded, true, &r.image);
+    render::RenderUVImage(r.gbuffer, rig_.uvs, rig_.uv_triangles, &r.uv);
+    render::RenderTriangleIdImage(r.gbuffer, &r.triangles);
+    render::RenderDepthImage(r.gbuffer, 0.f, &r.depth);
+    ByteWriter w;
+    w.PutVector(r.image.data);
+    w.PutVector(r.uv.data);
+    w.PutVector(r.triangles.data);
+    w.PutVector(r.depth.data);
+    const float angles[3] = {pose.pitch, pose.yaw, pose.roll};
+    w.PutArray(angles, 3);
+    const float intrinsics[4] = {camera.fx, camera.fy, camera.cx, camera.cy};
+    w.PutArray(intrinsics, 4);
+    return std::move(w.bytes());
+  }
+
+  // Rank 0: one view at a time (a view is about 0.3 MB), then marks them done.
+  void CommitViews(const std::vector<int64_t>& views, const std::vector<std::vector<uint8_t>>& results) {
+    io::H5File& f = output_.file;
+    for (size_t k = 0; k < views.size(); ++k) {
+      ByteReader r(results[k]);
+      f.WriteFrames<uint8_t>("/frames/image", views[k], 1, r.GetVector<uint8_t>().data());
+      f.WriteFrames<float>("/frames/uv", views[k], 1, r.GetVector<float>().data());
+      f.WriteFrames<int32_t>("/frames/triangle", views[k], 1, r.GetVector<int32_t>().data());
+      f.WriteFrames<float>("/frames/depth", views[k], 1, r.GetVector<float>().data());
+      f.WriteFrames<float>("/frames/pose", views[k], 1, r.GetVector<float>().data());
+      f.WriteFrames<float>("/frames/camera", views[k], 1, r.GetVector<float>().data());
+    }
+    io::DoneMask mask(&f, o_.views);
+    mask.MarkDone(views);
+  }
+
+  // Rank 0: sheet_count views spread evenly over the grid, read back from the output.
+  void WriteSheet() const {
+    io::H5File f = io::H5File::OpenRead(o_.out);
+    const int count = std::min(o_.sheet_count, o_.views);
+    std::vector<Image8> tiles;
+    for (int k = 0; k < count; ++k) {
+      const int64_t view = count == 1 ? 0 : static_cast<int64_t>(k) * (o_.views - 1) / (count - 1);
+      Image8 tile(o_.size, o_.size, 3);
+      f.ReadFrames<uint8_t>("/frames/image", view, 1, tile.data.data());
+      tiles.push_back(std::move(tile));
+    }
+    render::ContactSheetOptions sheet;
+    sheet.columns = std::min(count, 10);
+    io::WriteImage(o_.SheetPath(), render::ContactSheet(tiles, sheet));
+  }
+
+  const AppearanceTurntableOptions& o_;
+  const StageContext& ctx_;
+  const io::Config& resolved_;
+  const dist::Comm& comm_;
+  rig::Rig rig_;
+  ImageF texture_;
+  render::Camera camera_;
+  float distance_ = 0.f;
+  std::vector<std::pair<float, float>> angles_;
+  std::unique_ptr<const rig::RigEvaluator> evaluator_;
+  Eigen::Matrix<double, 68, 2, Eigen::RowMajor> crop_template_;
+  render::Lighting lighting_;
+  render::ShadingOptions shading_;
+  ResumableOutput output_;  // rank 0
+  std::vector<ViewRenderer> renderers_;
+};
+
+void RunAppearanceTurntable(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<AppearanceTurntableOptions>(flags, &ctx, &resolved);
+  TurntableRun(o, ctx, resolved).Run();
+}
+
+// [appearance.gather]
+struct AppearanceGatherOptions {
+  std::string views = "turntable.h5";  // appearance turntable output: U(I) of every view
+  std::string images = "";             // images of those views ("": the turntable's own)
+  std::string dataset = "";            // their dataset ("": /frames/translated, else /frames/image)
+  std::string out = "texture.h5";      // output file
+  int texture_size = 512;              // texture width and height (texels)
+  appearance::GatherOptions gather;
+  std::string exr = "";                // linear EXR of the texture ("": OUT with .exr; none)
+  std::string png = "";                // sRGB PNG of the texture ("": OUT with .png; none)
+
+  template <class V>
+  void Visit(V&& v) {
+    v("views", views, "appearance turntable output: U(I) and triangle ids of every view");
+    v("images", images, "file with an image of every view, e.g. deepfake infer's translations "
+                        "(\"\": the turntable's own renders)");
+    v("dataset", dataset, "image dataset in that file (\"\": /frames/translated, else /frames/image)");
+    v("out", out, "output file (HDF5): /texture/albedo, /texture/confidence, /texture/particles");
+    v("texture_size", texture_size, "texture width and height (texels)");
+    v("neighbours", gather.neighbours, "particles each texel gathers (k)");
+    v("max_radius_texels", gather.max_radius_texels,
+      "a texel whose k-th nearest particle is farther than this stays empty (texels)");
+    v("min_distance_texels", gather.min_distance_texels,
+      "inverse-distance weights 1 / max(d, this): nearer particles count alike (texels)");
+    v("exr", exr, "linear EXR of the texture (\"\": OUT with .exr; none: no EXR)");
+    v("png", png, "sRGB PNG of the texture (\"\": OUT with .png; none: no PNG)");
+  }
+  bool Check(std::string* why) const {
+    if (texture_size < 8 || texture_size > 8192) {
+      *why = "texture_size must be in [8, 8192]";
+      return false;
+    }
+    return gather.Check(why);
+  }
+  std::string ExrPath() const { return exr.empty() ? WithSuffix(out, ".exr") : exr; }
+  std::string PngPath() const { return png.empty() ? WithSuffix(out, ".png") : png; }
+  void DerivedOutputs(std::vector<NamedPath>* outputs) const {
+    if (exr != "none") outputs->push_back({"exr", ExrPath(), OutputKind::kImage});
+    if (png != "none") outputs->push_back({"png", PngPath(), OutputKind::kImage});
+  }
+};
+
+// Bilinear resampling of an RGB image to size x size (pixel centres at i + 0.5).
+ImageF ResampleTo(const ImageF& image, int size) {
+  if (image.width == size && image.height == size) return image;
+  ImageF out(size, size, 3);
+  const float sx = static_cast<float>(image.width) / size, sy = static_cast<float>(image.height) / size;
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const float u = (x + 0.5f) * sx - 0.5f, v = (y + 0.5f) * sy - 0.5f;
+      const int x0 = std::clamp(static_cast<int>(std::floor(u)), 0, image.width - 1);
+      const int y0 = std::clamp(static_cast<int>(std::floor(v)), 0, image.height - 1);
+      const int x1 = std::min(x0 + 1, image.width - 1), y1 = std::min(y0 + 1, image.height - 1);
+      const float fx = std::clamp(u - x0, 0.f, 1.f), fy = std::clamp(v - y0, 0.f, 1.f);
+      for (int c = 0; c < 3; ++c) {
+        out.at(x, y, c) = (1 - fy) * ((1 - fx) * image.at(x0, y0, c) + fx * image.at(x1, y0, c)) +
+                          fy * ((1 - fx) * image.at(x0, y1, c) + fx * image.at(x1, y1, c));
+      }
+    }
+  }
+  return out;
+}
+
+// The particles of every view: its image's pixels at their U(I) positions.
+std::vector<appearance::Particle> ReadParticles(const AppearanceGatherOptions& o,
+                                                const std::vector<int32_t>& charts) {
+  io::H5File views = io::H5File::OpenRead(o.views);
+  const io::Shape uv_shape = views.CheckShape("/frames/uv", {-1, -1, -1, 3});
+  const int64_t count = uv_shape[0];
+  const int size = static_cast<int>(uv_shape[1]);
+  views.CheckShape("/frames/triangle", {count, size, size});
+  const std::string images_path = o.images.empty() ? o.views : o.images;
+  io::H5File images = o.images.empty() ? io::H5File::OpenRead(o.views) : io::H5File::OpenRead(o.images);
+  std::string dataset = o.dataset;
+  if (dataset.empty()) dataset = images.Exists("/frames/translated") ? "/frames/translated" : "/frames/image";
+  const io::Shape image_shape = images.CheckShape(dataset, {-1, -1, -1, 3});
+  if (image_shape[0] != count) {
+    throw FileIOError(images_path + ": " + dataset + " has " + std::to_string(image_shape[0]) +
+                      " images, " + o.views + " has " + std::to_string(count) + " views");
+  }
+  Image8 image(static_cast<int>(image_shape[2]), static_cast<int>(image_shape[1]), 3);
+  ImageF linear, uv(size, size, 3);
+  Image<int32_t> triangles(size, size, 1);
+  std::vector<appearance::Particle> particles;
+  for (int64_t v = 0; v < count; ++v) {
+    images.ReadFrames<uint8_t>(dataset, v, 1, image.data.data());
+    views.ReadFrames<float>("/frames/uv", v, 1, uv.data.data());
+    views.ReadFrames<int32_t>("/frames/triangle", v, 1, triangles.data.data());
+    render::Image8ToLinear(image, true, &linear);
+    appearance::AppendImageParticles(ResampleTo(linear, size), uv, triangles, charts, nullptr,
+                                     &particles);
+  }
+  return particles;
+}
+
+void RunAppearanceGather(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<AppearanceGatherOptions>(flags, &ctx, &resolved);
+  // One process gathers: the particles of a few hundred views fit one node, and the result is
+  // the same for any rank count.
+  if (!ctx.comm.IsMainRank()) return;
+  const rig::Rig rig = io::ReadRigFile(o.views);
+  const std::vector<int32_t> charts = appearance::UVCharts(rig);
+  const std::vector<appearance::Particle> particles = ReadParticles(o, charts);
+  const render::TexelMap texels = render::BakeTexelMap(rig, o.texture_size);
+  const appearance::GatheredTexture gathered =
+      appearance::GatherParticles(particles, texels, charts, o.gather);
+  int64_t covered = 0, layout = 0;
+  for (size_t i = 0; i < texels.triangle.size(); ++i) {
+    layout += texels.Covered(i);
+    covered += gathered.confidence.data[i] > 0.f;
+  }
+  io::H5File f = io::H5File::CreateAtomic(o.out);
+  f.WriteProvenance(MakeProvenance(ctx, "appearance gather", resolved));
+  io::WriteColorTexture(&f, io::kTextureAlbedoPath, gathered.color);
+  const int64_t N = o.texture_size;
+  f.Write<float>(io::kTextureConfidencePath, {N, N}, gathered.confidence.data.data());
+  f.SetAttribute(io::kTextureConfidencePath, "meaning",
+                 std::string("min(1, r_1 / r): r the radius holding the k gathered particles, r_1 "
+                             "that at one particle per texel; 0 where nothing was gathered"));
+  f.Write<int32_t>(io::kTextureParticlesPath, {N, N}, gathered.count.data.data());
+  f.SetAttribute(io::kTextureParticlesPath, "meaning",
+                 std::string("particles whose nearest texel centre is this texel"));
+  f.SetAttribute("/texture", "particles", static_cast<int64_t>(particles.size()));
+  f.SetAttribute("/texture", "coverage", static_cast<double>(covered) / std::max<int64_t>(layout, 1));
+  f.Commit();
+  if (o.exr != "none") io::WriteImage(o.ExrPath(), gathered.color);
+  if (o.png != "none") {
+    Image8 png;
+    render::LinearToImage8(gathered.color, true, &png);
+    io::WriteImage(o.PngPath(), png);
+  }
+  FC_INFO("appearance gather: {} particles, {:.1f}% of the UV layout covered -> {}",
+          particles.size(), 100. * covered / std::max<int64_t>(layout, 1), o.out);
+}
+
+}  // namespace
+
+void RegisterAppearance(CLI::App* app, AppState* state) {
+  CLI::App* appearance = app->add_subcommand(
+      "appearance", "The person's texture from their footage (paper 000 Sec. 5): turntables of "
+                    "their rig, and the colours of images of those views gathered into a texture");
+  appearance->require_subcommand(1);
+  AddStage<AppearanceTurntableOptions>(
+      appearance, state, "turntable", "appearance.turntable", "appearance turntable",
+      "Renders of the rig at neutral over a pitch x yaw grid (Sec. 5.2), framed as ingest crops "
+      "footage, each with U(I), triangle ids and depth; a contact sheet; spread across ranks, "
+      "identical for any rank count, resumable",
+      PathKeys{{"rig", "texture"}, {{"out", OutputKind::kHdf5}}}, RunAppearanceTurntable);
+  AddStage<AppearanceGatherOptions>(
+      appearance, state, "gather", "appearance.gather", "appearance gather",
+      "Photon gathering (Sec. 5.4): every pixel of the views' images is a particle at its U(I) "
+      "position; each texel averages its k nearest particles of its UV chart by inverse "
+      "distance, with a confidence from the radius they needed; HDF5, linear EXR and sRGB PNG",
+      PathKeys{{"views", "images"}, {{"out", OutputKind::kHdf5}}}, RunAppearanceGather);
+}
+
+}  // namespace facecap::stages

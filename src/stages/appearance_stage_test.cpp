@@ -1,0 +1,133 @@
+// facecap appearance end to end: turntables identical for any rank count and after a kill,
+// and the capture of a synthetic person's albedo when the images splatted are the true renders
+// (a perfect deepfake), scored by eval appearance against the true albedo.
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "io/hdf5.h"
+#include "testing/testing.h"
+#include "util/errors.h"
+
+namespace facecap::stages {
+namespace {
+
+using testing::RunFacecap;
+
+class Appearance : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    auto rig = RunFacecap("rig demo --out " + dir_->File("rig.h5"));
+    ASSERT_EQ(rig.code, 0) << rig.output;
+    auto clip = RunFacecap("synth clip --rig " + dir_->File("rig.h5") + " --frames 2 --size 64 --out " +
+                           Clip() + " --identity-seed 21");
+    ASSERT_EQ(clip.code, 0) << clip.output;
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static std::string Clip() { return dir_->File("clip.h5"); }
+  // Views of the true person with the true albedo and no lighting: what a perfect deepfake
+  // would hand the gathering.
+  static std::string Turntable(const std::string& out) {
+    return "appearance turntable --rig " + Clip() + " --texture " + Clip() +
+           " --texture-dataset /identity/albedo --lighting none --views 30 --size 64 --batch 2 "
+           "--sheet none --out " + out;
+  }
+  template <typename T>
+  static std::vector<T> Read(const std::string& path, const std::string& name) {
+    return io::H5File::OpenRead(path).Read<T>(name, {});
+  }
+  static void ExpectSameViews(const std::string& a, const std::string& b) {
+    EXPECT_EQ(Read<uint8_t>(a, "/frames/image"), Read<uint8_t>(b, "/frames/image"));
+    EXPECT_EQ(Read<int32_t>(a, "/frames/triangle"), Read<int32_t>(b, "/frames/triangle"));
+    for (const char* name : {"/frames/uv", "/frames/depth", "/frames/pose", "/frames/camera"}) {
+      EXPECT_EQ(Read<float>(a, name), Read<float>(b, name)) << name << " differs: " << a << ", " << b;
+    }
+  }
+  static double JsonValue(const std::string& json, const std::string& key) {
+    const size_t at = json.find("\"" + key + "\": ");
+    if (at == std::string::npos) return NAN;
+    return std::strtod(json.c_str() + at + key.size() + 4, nullptr);
+  }
+  static testing::TempDir* dir_;
+};
+
+testing::TempDir* Appearance::dir_ = nullptr;
+
+TEST_F(Appearance, TurntableIsTheSameOnOneAndThreeRanksAndAfterAKill) {
+  const std::string one = dir_->File("tt1.h5"), three = dir_->File("tt3.h5"),
+                    killed = dir_->File("ttk.h5");
+  auto r1 = RunFacecap(Turntable(one), 1);
+  ASSERT_EQ(r1.code, 0) << r1.output;
+  auto r3 = RunFacecap(Turntable(three), 3);
+  ASSERT_EQ(r3.code, 0) << r3.output;
+  ExpectSameViews(one, three);
+  auto crash = RunFacecap(Turntable(killed), 0, "FACECAP_FAULT_AFTER_FRAMES=8 FACECAP_FAULT_SIGNAL=KILL");
+  EXPECT_NE(crash.code, 0);
+  ASSERT_TRUE(std::filesystem::exists(killed + ".partial"));
+  auto rerun = RunFacecap(Turntable(killed), 2);
+  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  EXPECT_NE(rerun.output.find("continuing"), std::string::npos) << rerun.output;
+  ExpectSameViews(one, killed);
+  // The views cover pitch and yaw: the head is seen from both sides.
+  const std::vector<float> pose = Read<float>(one, "/frames/pose");
+  float lowest = 1.f, highest = -1.f;
+  for (size_t v = 0; v < pose.size() / 3; ++v) {
+    lowest = std::min(lowest, pose[3 * v + 1]);
+    highest = std::max(highest, pose[3 * v + 1]);
+  }
+  EXPECT_LT(lowest, -1.1f);
+  EXPECT_GT(highest, 1.1f);
+}
+
+TEST_F(Appearance, GatheringTrueRendersCapturesTheTrueAlbedo) {
+  const std::string views = dir_->File("views.h5");
+  ASSERT_EQ(RunFacecap(Turntable(views)).code, 0);
+  const std::string one = dir_->File("texture1.h5"), two = dir_->File("texture2.h5");
+  auto g1 = RunFacecap("appearance gather --views " + views + " --texture-size 128 --out " + one, 1);
+  ASSERT_EQ(g1.code, 0) << g1.output;
+  auto g2 = RunFacecap("appearance gather --views " + views + " --texture-size 128 --png none --out " + two, 2);
+  ASSERT_EQ(g2.code, 0) << g2.output;
+  EXPECT_EQ(Read<float>(one, "/texture/albedo"), Read<float>(two, "/texture/albedo"));
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("texture1.png")));
+  EXPECT_TRUE(std::filesystem::exists(dir_->File("texture1.exr")));
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("texture2.png")));
+  auto eval = RunFacecap("eval appearance --truth " + Clip() + " --texture " + one);
+  ASSERT_EQ(eval.code, 0) << eval.output;
+  const double psnr = JsonValue(eval.output, "psnr_face_db");
+  const double flat = JsonValue(eval.output, "psnr_flat_db");
+  const double coverage = JsonValue(eval.output, "coverage");
+  EXPECT_GT(coverage, 0.95) << eval.output;
+  EXPECT_GT(psnr, 36.) << eval.output;
+  EXPECT_GT(psnr, flat + 6.) << eval.output;
+  // The lit renders of the plain albedo are no capture of this person: far below.
+  const std::string lit = dir_->File("lit.h5"), lit_texture = dir_->File("lit_texture.h5");
+  ASSERT_EQ(RunFacecap("appearance turntable --rig " + Clip() + " --views 30 --size 64 --sheet none --out " + lit).code, 0);
+  ASSERT_EQ(RunFacecap("appearance gather --views " + lit + " --texture-size 128 --out " + lit_texture).code, 0);
+  auto plain = RunFacecap("eval appearance --truth " + Clip() + " --texture " + lit_texture);
+  ASSERT_EQ(plain.code, 0) << plain.output;
+  EXPECT_LT(JsonValue(plain.output, "psnr_face_db"), psnr - 10.) << plain.output;
+}
+
+TEST_F(Appearance, BadInputsNameTheFile) {
+  const std::string views = dir_->File("views_bad.h5");
+  auto no_texture = RunFacecap("appearance turntable --rig " + Clip() + " --texture " +
+                               dir_->File("rig.h5") + " --texture-dataset /identity/albedo --out " + views);
+  EXPECT_EQ(no_texture.code, kExitInput) << no_texture.output;
+  EXPECT_NE(no_texture.output.find("rig.h5: no texture /identity/albedo"), std::string::npos)
+      << no_texture.output;
+  ASSERT_EQ(RunFacecap(Turntable(views)).code, 0);
+  // Images of another count than the views: exit 3 naming both files.
+  auto mismatch = RunFacecap("appearance gather --views " + views + " --images " + Clip() +
+                             " --out " + dir_->File("never.h5"));
+  EXPECT_EQ(mismatch.code, kExitInput) << mismatch.output;
+  EXPECT_NE(mismatch.output.find("clip.h5: /frames/image has 2 images"), std::string::npos)
+      << mismatch.output;
+  EXPECT_FALSE(std::filesystem::exists(dir_->File("never.h5")));
+  EXPECT_EQ(RunFacecap(Turntable(views) + " --yaw-max-deg 95").code, kExitUsage);
+}
+
+}  // namespace
+}  // namespace facecap::stages
