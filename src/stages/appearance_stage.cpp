@@ -28,6 +28,7 @@
 #include "stages/ingested_frames.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
+#include "stages/tracked_rig.h"
 #include "util/bytes.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -139,53 +140,58 @@ struct ViewRenderer {
   Image8 image;
 };
 
-class TurntableRun {
+// Where the views come from: the camera of each and the rig's pose and weights in it, and its
+// image (rendered, or read from footage on rank 0).
+class ViewSource {
  public:
-  TurntableRun(const AppearanceTurntableOptions& o, const StageContext& ctx, const io::Config& resolved)
-      : o_(o), ctx_(ctx), resolved_(resolved), comm_(ctx.comm) {}
+  virtual ~ViewSource() = default;
+  virtual int64_t NumViews() const = 0;
+  virtual int Size() const = 0;
+  // View `view`: its camera, and the rig's pose in it and weights; false when the view shows no
+  // head (a frame without a tracked face). `posed` is scratch.
+  virtual bool Setup(int64_t view, rig::Vertices* posed, render::Camera* camera,
+                     rig::RigidPose* pose, Eigen::VectorXf* weights) const = 0;
+  // True: the view's image is the rig's shaded render (ShadedImage); false: rank 0 reads it
+  // (ReadImage) when it writes the view.
+  virtual bool Rendered() const = 0;
+  virtual void ReadImage(int64_t /*view*/, Image8* /*image*/) const {}
+};
+
+// Renders every view of a source (U(I), triangle ids, depth, and the shaded image when the
+// source renders it) across ranks into a resumable output with the datasets of
+// CreateViewDatasets and the rig under /rig, then a contact sheet.
+class ViewsRun {
+ public:
+  struct Settings {
+    std::string stage, out, sheet;  // sheet: PNG path, or "none"
+    int batch = 16, threads = 0, sheet_count = 40;
+  };
+  ViewsRun(const Settings& settings, const StageContext& ctx, const io::Config& resolved,
+           const rig::Rig& rig, const ViewSource& source, const render::Lighting& lighting,
+           const render::ShadingOptions& shading, const ImageF* texture)
+      : s_(settings), ctx_(ctx), resolved_(resolved), comm_(ctx.comm), rig_(rig),
+        source_(source), lighting_(lighting), shading_(shading), texture_(texture),
+        evaluator_(rig) {}
 
   void Run() {
-    dist::CoordinateExceptions(comm_, [&] {
-      rig_ = io::ReadRigFile(o_.rig);
-      if (rig_.landmarks.size() != 68) {
-        throw FileIOError(o_.rig + ": the rig has " + std::to_string(rig_.landmarks.size()) +
-                          " landmarks; turntables are framed by the 68 iBUG landmarks");
-      }
-      if (rig_.uvs.rows() == 0) throw FileIOError(o_.rig + ": the rig has no texture coordinates");
-      if (!o_.texture.empty()) texture_ = io::ReadColorTexture(o_.texture, o_.texture_dataset);
-    });
-    camera_ = render::Camera::FromFov(o_.size, o_.size, static_cast<float>(o_.fov_deg));
-    distance_ = render::FramingDistance(rig_, camera_, static_cast<float>(o_.fill));
-    angles_ = render::TurntableAngles(o_.views, static_cast<float>(o_.pitch_min_deg * kDegree),
-                                      static_cast<float>(o_.pitch_max_deg * kDegree),
-                                      static_cast<float>(o_.yaw_min_deg * kDegree),
-                                      static_cast<float>(o_.yaw_max_deg * kDegree));
-    evaluator_ = std::make_unique<const rig::RigEvaluator>(rig_);
-    crop_template_ = face::CropTemplate({o_.size, o_.crop_padding, o_.crop_raise});
-    shading_.albedo_source = texture_.empty() ? render::AlbedoSource::kConstant
-                                              : render::AlbedoSource::kTexture;
-    if (o_.lighting == "none") {
-      lighting_.ambient = Eigen::Vector3f::Ones();
-      lighting_.directional_lights.clear();
-      shading_.specular_strength = 0.f;
-    }
+    const int64_t n = source_.NumViews();
     FrameOutput opened = OpenFrameOutput(
-        ctx_, resolved_, "appearance turntable", o_.out, o_.views,
+        ctx_, resolved_, s_.stage, s_.out, n,
         [&](io::H5File* f, bool resumed) {
-          CreateViewDatasets(f, o_.size, o_.views);
+          CreateViewDatasets(f, source_.Size(), n);
           if (!resumed) io::WriteRig(rig_, f, "/rig");
         },
         "views");
     output_ = std::move(opened.output);
     if (!opened.up_to_date) {
-      const int threads = ThreadsPerRank(o_.threads);
+      const int threads = ThreadsPerRank(s_.threads);
       renderers_ = std::vector<ViewRenderer>(threads);
       FrameLoopOptions loop;
-      loop.what = "appearance turntable";
-      loop.batch = o_.batch;
+      loop.what = s_.stage;
+      loop.batch = s_.batch;
       loop.threads = threads;
       RunFrameLoop(
-          comm_, opened.pending, o_.views, loop,
+          comm_, opened.pending, n, loop,
           [&](int64_t view, int thread) { return RenderView(view, thread); },
           [&](const std::vector<int64_t>& views, const std::vector<std::vector<uint8_t>>& results) {
             CommitViews(views, results);
@@ -195,31 +201,38 @@ class TurntableRun {
       });
     }
     if (comm_.IsMainRank()) {
-      if (o_.sheet != "none") WriteSheet();
-      FC_INFO("appearance turntable: {} views -> {}", o_.views, o_.out);
+      if (s_.sheet != "none") WriteSheet();
+      FC_INFO("{}: {} views -> {}", s_.stage, n, s_.out);
     }
   }
 
  private:
-  // View `view`: the rig at neutral, framed as an ingest crop, rendered.
   std::vector<uint8_t> RenderView(int64_t view, int thread) {
     ViewRenderer& r = renderers_[thread];
-    const auto [pitch, yaw] = angles_[view];
-    rig::RigidPose pose = render::FramedPose(rig_, distance_, pitch, yaw);
-    const Eigen::VectorXf weights = Eigen::VectorXf::Zero(rig_.NumShapes());
-    const render::Camera camera = IngestCropCamera(rig_, *evaluator_, camera_, crop_template_,
-                                                   o_.size, weights, &pose, &r.posed);
-    evaluator_->EvaluatePosed(pose, weights, &r.posed);
-    render::Rasterize(r.posed, rig_.triangles, camera, &r.gbuffer);
-    render::VertexNormals(r.posed, rig_.triangles, &r.normals);
-    render::RenderShaded(r.gbuffer, r.posed, r.normals, rig_, lighting_, shading_,
-                         texture_.empty() ? nullptr : &texture_, nullptr, &r.shaded);
-    render::LinearToImage8(r.shaded, true, &r.image);
-    render::RenderUVImage(r.gbuffer, rig_.uvs, rig_.uv_triangles, &r.uv);
-    render::RenderTriangleIdImage(r.gbuffer, &r.triangles);
-    render::RenderDepthImage(r.gbuffer, 0.f, &r.depth);
+    render::Camera camera;
+    rig::RigidPose pose;
+    Eigen::VectorXf weights;
+    const int size = source_.Size();
+    if (source_.Setup(view, &r.posed, &camera, &pose, &weights)) {
+      evaluator_.EvaluatePosed(pose, weights, &r.posed);
+      render::Rasterize(r.posed, rig_.triangles, camera, &r.gbuffer);
+      render::RenderUVImage(r.gbuffer, rig_.uvs, rig_.uv_triangles, &r.uv);
+      render::RenderTriangleIdImage(r.gbuffer, &r.triangles);
+      render::RenderDepthImage(r.gbuffer, 0.f, &r.depth);
+      if (source_.Rendered()) {
+        render::VertexNormals(r.posed, rig_.triangles, &r.normals);
+        render::RenderShaded(r.gbuffer, r.posed, r.normals, rig_, lighting_, shading_, texture_,
+                             nullptr, &r.shaded);
+        render::LinearToImage8(r.shaded, true, &r.image);
+      }
+    } else {
+      r.uv = ImageF(size, size, 3);
+      r.depth = ImageF(size, size, 1);
+      r.triangles = render::ImageI(size, size, 1, -1);
+      camera = render::Camera();
+    }
     ByteWriter w;
-    w.PutVector(r.image.data);
+    w.PutVector(source_.Rendered() ? r.image.data : std::vector<uint8_t>());
     w.PutVector(r.uv.data);
     w.PutVector(r.triangles.data);
     w.PutVector(r.depth.data);
@@ -233,57 +246,228 @@ class TurntableRun {
   // Rank 0: one view at a time (a view is about 0.3 MB), then marks them done.
   void CommitViews(const std::vector<int64_t>& views, const std::vector<std::vector<uint8_t>>& results) {
     io::H5File& f = output_.file;
+    Image8 image(source_.Size(), source_.Size(), 3);
     for (size_t k = 0; k < views.size(); ++k) {
       ByteReader r(results[k]);
-      f.WriteFrames<uint8_t>("/frames/image", views[k], 1, r.GetVector<uint8_t>().data());
+      std::vector<uint8_t> rendered = r.GetVector<uint8_t>();
+      if (!source_.Rendered()) {
+        source_.ReadImage(views[k], &image);
+        rendered = image.data;
+      }
+      f.WriteFrames<uint8_t>("/frames/image", views[k], 1, rendered.data());
       f.WriteFrames<float>("/frames/uv", views[k], 1, r.GetVector<float>().data());
       f.WriteFrames<int32_t>("/frames/triangle", views[k], 1, r.GetVector<int32_t>().data());
       f.WriteFrames<float>("/frames/depth", views[k], 1, r.GetVector<float>().data());
       f.WriteFrames<float>("/frames/pose", views[k], 1, r.GetVector<float>().data());
       f.WriteFrames<float>("/frames/camera", views[k], 1, r.GetVector<float>().data());
     }
-    io::DoneMask mask(&f, o_.views);
+    io::DoneMask mask(&f, source_.NumViews());
     mask.MarkDone(views);
   }
 
-  // Rank 0: sheet_count views spread evenly over the grid, read back from the output.
+  // Rank 0: sheet_count views spread evenly, read back from the output.
   void WriteSheet() const {
-    io::H5File f = io::H5File::OpenRead(o_.out);
-    const int count = std::min(o_.sheet_count, o_.views);
+    io::H5File f = io::H5File::OpenRead(s_.out);
+    const int64_t n = source_.NumViews();
+    const int64_t count = std::min<int64_t>(s_.sheet_count, n);
     std::vector<Image8> tiles;
-    for (int k = 0; k < count; ++k) {
-      const int64_t view = count == 1 ? 0 : static_cast<int64_t>(k) * (o_.views - 1) / (count - 1);
-      Image8 tile(o_.size, o_.size, 3);
+    for (int64_t k = 0; k < count; ++k) {
+      const int64_t view = count == 1 ? 0 : k * (n - 1) / (count - 1);
+      Image8 tile(source_.Size(), source_.Size(), 3);
       f.ReadFrames<uint8_t>("/frames/image", view, 1, tile.data.data());
       tiles.push_back(std::move(tile));
     }
     render::ContactSheetOptions sheet;
-    sheet.columns = std::min(count, 10);
-    io::WriteImage(o_.SheetPath(), render::ContactSheet(tiles, sheet));
+    sheet.columns = static_cast<int>(std::min<int64_t>(count, 10));
+    io::WriteImage(s_.sheet, render::ContactSheet(tiles, sheet));
   }
 
-  const AppearanceTurntableOptions& o_;
+  const Settings s_;
   const StageContext& ctx_;
   const io::Config& resolved_;
   const dist::Comm& comm_;
-  rig::Rig rig_;
-  ImageF texture_;
-  render::Camera camera_;
-  float distance_ = 0.f;
-  std::vector<std::pair<float, float>> angles_;
-  std::unique_ptr<const rig::RigEvaluator> evaluator_;
-  Eigen::Matrix<double, 68, 2, Eigen::RowMajor> crop_template_;
-  render::Lighting lighting_;
-  render::ShadingOptions shading_;
+  const rig::Rig& rig_;
+  const ViewSource& source_;
+  const render::Lighting lighting_;
+  const render::ShadingOptions shading_;
+  const ImageF* texture_;
+  const rig::RigEvaluator evaluator_;
   ResumableOutput output_;  // rank 0
   std::vector<ViewRenderer> renderers_;
 };
+
+// The turntable's views: the rig at neutral over the pitch x yaw grid, framed as ingest crops.
+class TurntableSource : public ViewSource {
+ public:
+  TurntableSource(const AppearanceTurntableOptions& o, const rig::Rig& rig)
+      : o_(o), rig_(rig), evaluator_(rig),
+        camera_(render::Camera::FromFov(o.size, o.size, static_cast<float>(o.fov_deg))),
+        distance_(render::FramingDistance(rig, camera_, static_cast<float>(o.fill))),
+        angles_(render::TurntableAngles(o.views, static_cast<float>(o.pitch_min_deg * kDegree),
+                                        static_cast<float>(o.pitch_max_deg * kDegree),
+                                        static_cast<float>(o.yaw_min_deg * kDegree),
+                                        static_cast<float>(o.yaw_max_deg * kDegree))),
+        crop_template_(face::CropTemplate({o.size, o.crop_padding, o.crop_raise})) {}
+  int64_t NumViews() const override { return o_.views; }
+  int Size() const override { return o_.size; }
+  bool Rendered() const override { return true; }
+  bool Setup(int64_t view, rig::Vertices* posed, render::Camera* camera, rig::RigidPose* pose,
+             Eigen::VectorXf* weights) const override {
+    const auto [pitch, yaw] = angles_[view];
+    *pose = render::FramedPose(rig_, distance_, pitch, yaw);
+    *weights = Eigen::VectorXf::Zero(rig_.NumShapes());
+    *camera = IngestCropCamera(rig_, evaluator_, camera_, crop_template_, o_.size, *weights,
+                               pose, posed);
+    return true;
+  }
+
+ private:
+  const AppearanceTurntableOptions& o_;
+  const rig::Rig& rig_;
+  const rig::RigEvaluator evaluator_;
+  const render::Camera camera_;
+  const float distance_;
+  const std::vector<std::pair<float, float>> angles_;
+  const Eigen::Matrix<double, 68, 2, Eigen::RowMajor> crop_template_;
+};
+
+// Reads the rig of a view-making stage on every rank; FileIOError unless it has the 68
+// landmarks and texture coordinates.
+rig::Rig ReadViewRig(const dist::Comm& comm, const std::string& path) {
+  rig::Rig rig;
+  dist::CoordinateExceptions(comm, [&] {
+    rig = io::ReadRigFile(path);
+    if (rig.landmarks.size() != 68) {
+      throw FileIOError(path + ": the rig has " + std::to_string(rig.landmarks.size()) +
+                        " landmarks; views are framed by the 68 iBUG landmarks");
+    }
+    if (rig.uvs.rows() == 0) throw FileIOError(path + ": the rig has no texture coordinates");
+  });
+  return rig;
+}
 
 void RunAppearanceTurntable(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
   const auto o = ResolveStageOptions<AppearanceTurntableOptions>(flags, &ctx, &resolved);
-  TurntableRun(o, ctx, resolved).Run();
+  const rig::Rig rig = ReadViewRig(ctx.comm, o.rig);
+  ImageF texture;
+  dist::CoordinateExceptions(ctx.comm, [&] {
+    if (!o.texture.empty()) texture = io::ReadColorTexture(o.texture, o.texture_dataset);
+  });
+  render::Lighting lighting;
+  render::ShadingOptions shading;
+  shading.albedo_source = texture.empty() ? render::AlbedoSource::kConstant : render::AlbedoSource::kTexture;
+  if (o.lighting == "none") {
+    lighting.ambient = Eigen::Vector3f::Ones();
+    lighting.directional_lights.clear();
+    shading.specular_strength = 0.f;
+  }
+  const TurntableSource source(o, rig);
+  ViewsRun::Settings settings{"appearance turntable", o.out, o.sheet == "none" ? o.sheet : o.SheetPath(),
+                              o.batch, o.threads, o.sheet_count};
+  ViewsRun(settings, ctx, resolved, rig, source, lighting, shading,
+           texture.empty() ? nullptr : &texture).Run();
+}
+
+// [appearance.frames]
+struct AppearanceFramesOptions {
+  std::string frames = "frames.h5";   // ingest output (crops), or a synthetic clip
+  std::string dataset = "";           // image dataset ("": /frames/crop, else /frames/image)
+  std::string track = "track.h5";     // track output of those frames
+  std::string rig = "person.h5";      // the rig that was tracked
+  std::string out = "frame_views.h5"; // output file
+  int batch = 16;                     // frames per rank per round (a checkpoint per round)
+  int threads = 0;                    // OpenMP threads per rank (0: cores / ranks on the node)
+  std::string sheet = "";             // contact sheet PNG ("": OUT with _sheet.png; "none")
+  int sheet_count = 40;               // frames in the sheet, evenly spread
+
+  template <class V>
+  void Visit(V&& v) {
+    v("frames", frames, "ingest output (its crops), or a synthetic clip tracked in its own camera");
+    v("dataset", dataset, "image dataset (\"\": /frames/crop, else /frames/image)");
+    v("track", track, "track output of those frames");
+    v("rig", rig, "the rig that was tracked (person fit's output)");
+    v("out", out, "output file (HDF5), laid out as appearance turntable's");
+    v("batch", batch, "frames per rank per round; each round is a checkpoint");
+    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
+    v("sheet", sheet, "contact sheet PNG of the frames (\"\": OUT with _sheet.png; none: no sheet)");
+    v("sheet_count", sheet_count, "frames in the contact sheet, evenly spread");
+  }
+  bool Check(std::string* why) const {
+    if (batch < 1 || threads < 0 || sheet_count < 1) {
+      *why = "batch and sheet_count must be positive, threads >= 0";
+      return false;
+    }
+    return true;
+  }
+  std::string SheetPath() const { return sheet.empty() ? WithSuffix(out, "_sheet.png") : sheet; }
+  void DerivedOutputs(std::vector<NamedPath>* outputs) const {
+    if (sheet != "none") outputs->push_back({"sheet", SheetPath(), OutputKind::kImage});
+  }
+};
+
+// Tracked footage as views: each frame's image with the tracked rig in its camera (the crop's,
+// for a track of ingested crops). Frames without a tracked face show no head.
+class TrackedFramesSource : public ViewSource {
+ public:
+  TrackedFramesSource(const AppearanceFramesOptions& o, const rig::Rig& rig)
+      : track_(o.track, rig), path_(o.frames) {
+    io::H5File f = io::H5File::OpenRead(o.frames);
+    dataset_ = o.dataset;
+    if (dataset_.empty()) dataset_ = f.Exists("/frames/crop") ? "/frames/crop" : "/frames/image";
+    const io::Shape shape = f.CheckShape(dataset_, {-1, -1, -1, 3});
+    if (shape[1] != shape[2]) throw FileIOError(o.frames + ": " + dataset_ + " is not square");
+    if (shape[0] != track_.NumFrames()) {
+      throw FileIOError(o.frames + ": " + dataset_ + " has " + std::to_string(shape[0]) +
+                        " frames, " + o.track + " tracks " + std::to_string(track_.NumFrames()));
+    }
+    size_ = static_cast<int>(shape[1]);
+    if (track_.InSourceCamera()) {
+      ingested_ = std::make_unique<IngestedFrames>(IngestedFrames::Read(o.frames));
+    }
+  }
+  int64_t NumViews() const override { return track_.NumFrames(); }
+  int Size() const override { return size_; }
+  bool Rendered() const override { return false; }
+  bool Setup(int64_t view, rig::Vertices* /*posed*/, render::Camera* camera,
+             rig::RigidPose* pose, Eigen::VectorXf* weights) const override {
+    if (!track_.Solved(view) || (ingested_ && !ingested_->Found(view))) return false;
+    *pose = track_.Pose(view);
+    *weights = track_.Weights(view);
+    if (ingested_) {
+      const render::CropView crop = ingested_->CropCamera(view, size_);
+      *pose = PoseInCrop(*pose, crop);
+      *camera = crop.camera;
+    } else {
+      *camera = track_.CameraForWidth(size_, size_);
+    }
+    return true;
+  }
+  void ReadImage(int64_t view, Image8* image) const override {
+    if (!file_.is_open()) file_ = io::H5File::OpenRead(path_);
+    file_.ReadFrames<uint8_t>(dataset_, view, 1, image->data.data());
+  }
+
+ private:
+  TrackedRig track_;
+  std::string path_, dataset_;
+  int size_ = 0;
+  std::unique_ptr<IngestedFrames> ingested_;
+  mutable io::H5File file_;  // rank 0, opened at the first read
+};
+
+void RunAppearanceFrames(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<AppearanceFramesOptions>(flags, &ctx, &resolved);
+  const rig::Rig rig = ReadViewRig(ctx.comm, o.rig);
+  std::unique_ptr<TrackedFramesSource> source;
+  dist::CoordinateExceptions(ctx.comm, [&] { source = std::make_unique<TrackedFramesSource>(o, rig); });
+  ViewsRun::Settings settings{"appearance frames", o.out, o.sheet == "none" ? o.sheet : o.SheetPath(),
+                              o.batch, o.threads, o.sheet_count};
+  ViewsRun(settings, ctx, resolved, rig, *source, render::Lighting(), render::ShadingOptions(),
+           nullptr).Run();
 }
 
 // [appearance.gather]
@@ -436,6 +620,13 @@ void RegisterAppearance(CLI::App* app, AppState* state) {
       "footage, each with U(I), triangle ids and depth; a contact sheet; spread across ranks, "
       "identical for any rank count, resumable",
       PathKeys{{"rig", "texture"}, {{"out", OutputKind::kHdf5}}}, RunAppearanceTurntable);
+  AddStage<AppearanceFramesOptions>(
+      appearance, state, "frames", "appearance.frames", "appearance frames",
+      "Tracked footage as views for gathering: each frame's image (ingest's crop) with the "
+      "tracked rig's U(I), triangle ids and depth in its camera, laid out as the turntable's; "
+      "splatting these is the naive capture the deepfake's translations are measured against; "
+      "spread across ranks, resumable",
+      PathKeys{{"frames", "track", "rig"}, {{"out", OutputKind::kHdf5}}}, RunAppearanceFrames);
   AddStage<AppearanceGatherOptions>(
       appearance, state, "gather", "appearance.gather", "appearance gather",
       "Photon gathering (Sec. 5.4): every pixel of the views' images is a particle at its U(I) "

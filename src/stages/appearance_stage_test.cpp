@@ -111,6 +111,35 @@ TEST_F(Appearance, GatheringTrueRendersCapturesTheTrueAlbedo) {
   EXPECT_LT(JsonValue(plain.output, "psnr_face_db"), psnr - 10.) << plain.output;
 }
 
+TEST_F(Appearance, TrackedFramesBecomeViewsWhoseUVImageCoversTheFace) {
+  const std::string track = dir_->File("track.h5"), views = dir_->File("frame_views.h5");
+  auto t = RunFacecap("track --rig " + Clip() + " --targets " + Clip() +
+                      " --targets-dataset /frames/segmentation --out " + track);
+  ASSERT_EQ(t.code, 0) << t.output;
+  auto r = RunFacecap("appearance frames --frames " + Clip() + " --track " + track + " --rig " +
+                      Clip() + " --out " + views, 2);
+  ASSERT_EQ(r.code, 0) << r.output;
+  // The views are the clip's own frames, and the tracked rig's U(I) covers the face the
+  // segmentation shows (true rig, solved on the true segmentation: nearly the same pixels).
+  EXPECT_EQ(Read<uint8_t>(views, "/frames/image"), Read<uint8_t>(Clip(), "/frames/image"));
+  const std::vector<float> uv = Read<float>(views, "/frames/uv");
+  const std::vector<uint8_t> segmentation = Read<uint8_t>(Clip(), "/frames/segmentation");
+  int64_t both = 0, either = 0;
+  for (size_t p = 0; p < uv.size() / 3; ++p) {
+    const bool head = segmentation[3 * p] + segmentation[3 * p + 1] + segmentation[3 * p + 2] > 0;
+    const bool covered = uv[3 * p + 2] > 0.5f;
+    both += head && covered;
+    either += head || covered;
+  }
+  ASSERT_GT(either, 0);
+  EXPECT_GT(static_cast<double>(both) / either, 0.9);
+  const std::string texture = dir_->File("frames_texture.h5");
+  auto g = RunFacecap("appearance gather --views " + views + " --texture-size 64 --out " + texture);
+  ASSERT_EQ(g.code, 0) << g.output;
+  EXPECT_GT(JsonValue(RunFacecap("eval appearance --truth " + Clip() + " --texture " + texture).output,
+                      "coverage"), 0.5);
+}
+
 TEST_F(Appearance, BadInputsNameTheFile) {
   const std::string views = dir_->File("views_bad.h5");
   auto no_texture = RunFacecap("appearance turntable --rig " + Clip() + " --texture " +

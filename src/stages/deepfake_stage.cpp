@@ -51,6 +51,7 @@ constexpr int kPreviewRows = 4;  // image pairs in the preview grid
 // [deepfake.train]
 struct DeepfakeTrainOptions {
   std::string a = "samples.h5";                  // domain A: synthetic segmentation renders
+  std::string a_dataset = "/samples/segmentation";  // A's image dataset
   std::string b = "frames.h5";                   // domain B: real frames (ingest) or a wild clip
   std::string b_dataset = "";                    // image dataset of B ("": first found of
                                                  // /frames/image, /frames/crop, /samples/segmentation)
@@ -100,6 +101,8 @@ struct DeepfakeTrainOptions {
   template <class V>
   void Visit(V&& v) {
     v("a", a, "domain A file: synthetic segmentation renders (synth samples, /samples/segmentation)");
+    v("a_dataset", a_dataset,
+      "image dataset of A (e.g. /frames/image of appearance turntable's renders, with an RGB head)");
     v("b", b, "domain B file: real frames (ingest) or a wild clip (synth clip)");
     v("b_dataset", b_dataset,
       "image dataset of B (empty: the first of /frames/image, /frames/crop, /samples/segmentation)");
@@ -531,7 +534,7 @@ struct TrainingData {
 
 TrainingData ReadTrainingData(const DeepfakeTrainOptions& o, const dist::Comm& comm) {
   TrainingData d;
-  d.a = ReadShard(o.a, "/samples/segmentation", comm);
+  d.a = ReadShard(o.a, o.a_dataset, comm);
   d.b = ReadShard(o.b, o.b_dataset, comm, o.b_holdout_every);
   // Each rank holds its block of every paired clip, so that every person is seen by every rank.
   for (const std::string& path : o.paired) {
