@@ -150,6 +150,79 @@ GatheredTexture GatherParticles(const std::vector<Particle>& particles,
   return out;
 }
 
+namespace {
+
+// One pyramid level: premultiplied colour (3 channels) and weight (1 channel).
+struct Level {
+  ImageF color, weight;
+};
+
+Level Halve(const Level& fine) {
+  const int w = (fine.color.width + 1) / 2, h = (fine.color.height + 1) / 2;
+  Level coarse{ImageF(w, h, 3), ImageF(w, h, 1)};
+  for (int y = 0; y < fine.color.height; ++y) {
+    for (int x = 0; x < fine.color.width; ++x) {
+      coarse.weight.at(x / 2, y / 2) += fine.weight.at(x, y);
+      for (int c = 0; c < 3; ++c) coarse.color.at(x / 2, y / 2, c) += fine.color.at(x, y, c);
+    }
+  }
+  return coarse;
+}
+
+}  // namespace
+
+void FillHoles(const ImageF& confidence, ImageF* color) {
+  const int W = color->width, H = color->height;
+  std::vector<Level> pyramid(1, Level{ImageF(W, H, 3), ImageF(W, H, 1)});
+  bool any = false;
+  for (int y = 0; y < H; ++y) {
+    for (int x = 0; x < W; ++x) {
+      const float w = confidence.at(x, y) > 0.f ? confidence.at(x, y) : 0.f;
+      any = any || w > 0.f;
+      pyramid[0].weight.at(x, y) = w;
+      for (int c = 0; c < 3; ++c) pyramid[0].color.at(x, y, c) = w * color->at(x, y, c);
+    }
+  }
+  if (!any) return;
+  while (pyramid.back().color.width > 1 || pyramid.back().color.height > 1) {
+    pyramid.push_back(Halve(pyramid.back()));
+  }
+  // Pull: from the coarsest level up, each level's texels become colours (normalized), and
+  // texels without weight take the coarser level's value at their centre.
+  std::vector<ImageF> filled(pyramid.size());
+  for (size_t l = pyramid.size(); l-- > 0;) {
+    const Level& level = pyramid[l];
+    const int w = level.color.width, h = level.color.height;
+    filled[l] = ImageF(w, h, 3);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const float weight = level.weight.at(x, y);
+        if (weight > 0.f) {
+          for (int c = 0; c < 3; ++c) filled[l].at(x, y, c) = level.color.at(x, y, c) / weight;
+          continue;
+        }
+        const ImageF& coarse = filled[l + 1];  // exists: the coarsest level has weight
+        const float u = (x + 0.5f) / 2.f - 0.5f, v = (y + 0.5f) / 2.f - 0.5f;
+        const int x0 = std::clamp(static_cast<int>(std::floor(u)), 0, coarse.width - 1);
+        const int y0 = std::clamp(static_cast<int>(std::floor(v)), 0, coarse.height - 1);
+        const int x1 = std::min(x0 + 1, coarse.width - 1), y1 = std::min(y0 + 1, coarse.height - 1);
+        const float fx = std::clamp(u - x0, 0.f, 1.f), fy = std::clamp(v - y0, 0.f, 1.f);
+        for (int c = 0; c < 3; ++c) {
+          filled[l].at(x, y, c) =
+              (1 - fy) * ((1 - fx) * coarse.at(x0, y0, c) + fx * coarse.at(x1, y0, c)) +
+              fy * ((1 - fx) * coarse.at(x0, y1, c) + fx * coarse.at(x1, y1, c));
+        }
+      }
+    }
+  }
+  for (int y = 0; y < H; ++y) {
+    for (int x = 0; x < W; ++x) {
+      if (confidence.at(x, y) > 0.f) continue;
+      for (int c = 0; c < 3; ++c) color->at(x, y, c) = filled[0].at(x, y, c);
+    }
+  }
+}
+
 void AppendImageParticles(const ImageF& image, const ImageF& uv_image,
                           const Image<int32_t>& triangles, const std::vector<int32_t>& charts,
                           const ImageF* mask, std::vector<Particle>* particles) {

@@ -69,6 +69,19 @@ GatheredTexture GatherParticles(const std::vector<Particle>& particles,
                                 const render::TexelMap& texels,
                                 const std::vector<int32_t>& charts, const GatherOptions& options);
 
+// Fills every texel whose confidence is 0 (holes, and texels outside the UV layout) by
+// push-pull: the known texels are averaged down a pyramid of halved resolutions (weighted by
+// their confidence), and each level's empty texels take the bilinear value of the coarser
+// level. Known texels keep their colour; holes get a smooth continuation of their
+// surroundings, so that bilinear lookups near chart borders and renders of unseen parts show
+// no black. A texture with no known texel is left as it is.
+//
+// Inputs:
+//   confidence  1 channel, the texture's size; > 0 where the colour is known
+// Outputs:
+//   color       3 channels, filled in place
+void FillHoles(const ImageF& confidence, ImageF* color);
+
 // The particles of one image: every pixel with U(I) coverage > 0.5 and a visible triangle.
 //
 // Inputs:

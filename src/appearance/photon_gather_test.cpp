@@ -169,6 +169,38 @@ TEST_F(PhotonGatherTest, ConfidenceFallsWhereParticlesAreSparseAndHolesStayEmpty
   EXPECT_EQ(band_empty, band);
 }
 
+TEST(FillHolesTest, HolesTakeASmoothContinuationAndKnownTexelsStay) {
+  // A horizontal ramp with a 10 x 10 hole and an unknown right third.
+  const int N = 64;
+  ImageF color(N, N, 3), confidence(N, N, 1);
+  for (int y = 0; y < N; ++y) {
+    for (int x = 0; x < N; ++x) {
+      const bool hole = (x >= 20 && x < 30 && y >= 20 && y < 30) || x >= 44;
+      confidence.at(x, y) = hole ? 0.f : 1.f;
+      for (int c = 0; c < 3; ++c) color.at(x, y, c) = hole ? 0.f : 0.2f + 0.01f * x;
+    }
+  }
+  const ImageF before = color;
+  FillHoles(confidence, &color);
+  for (int y = 0; y < N; ++y) {
+    for (int x = 0; x < N; ++x) {
+      if (confidence.at(x, y) > 0.f) {
+        EXPECT_EQ(color.at(x, y, 1), before.at(x, y, 1));
+      } else if (x < 44) {
+        // Inside the small hole: close to the ramp it interrupts.
+        EXPECT_NEAR(color.at(x, y, 0), 0.2f + 0.01f * x, 0.06f) << x << ", " << y;
+      } else {
+        // The unknown third continues the known edge's colours, never black.
+        EXPECT_GT(color.at(x, y, 0), 0.4f) << x << ", " << y;
+        EXPECT_LT(color.at(x, y, 0), 0.64f) << x << ", " << y;
+      }
+    }
+  }
+  ImageF none(N, N, 1), untouched = before;
+  FillHoles(none, &untouched);
+  EXPECT_EQ(untouched.data, before.data);
+}
+
 TEST_F(PhotonGatherTest, BadOptionsAndParticlesAreRefused) {
   GatherOptions options;
   options.neighbours = 0;

@@ -38,6 +38,36 @@ namespace {
 
 constexpr double kDegree = 3.14159265358979323846 / 180.;
 
+// The rounds, threads and contact sheet of a stage that makes views (turntable, frames).
+struct ViewRunOptions {
+  int batch = 16;           // views per rank per round (a checkpoint per round)
+  int threads = 0;          // OpenMP threads per rank (0: cores / ranks on the node)
+  std::string sheet = "";   // contact sheet PNG ("": OUT with _sheet.png; "none")
+  int sheet_count = 40;     // views in the sheet, evenly spread
+
+  template <class V>
+  void Visit(V&& v) {
+    v("batch", batch, "views per rank per round; each round is a checkpoint");
+    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
+    v("sheet", sheet, "contact sheet PNG of the views (\"\": OUT with _sheet.png; none: no sheet)");
+    v("sheet_count", sheet_count, "views in the contact sheet, evenly spread");
+  }
+  bool Check(std::string* why) const {
+    if (batch < 1 || threads < 0 || sheet_count < 1) {
+      *why = "batch and sheet_count must be positive, threads >= 0";
+      return false;
+    }
+    return true;
+  }
+  // The sheet's path for output `out`, or "none".
+  std::string SheetPath(const std::string& out) const {
+    return sheet.empty() ? WithSuffix(out, "_sheet.png") : sheet;
+  }
+  void DerivedOutputs(const std::string& out, std::vector<NamedPath>* outputs) const {
+    if (sheet != "none") outputs->push_back({"sheet", SheetPath(out), OutputKind::kImage});
+  }
+};
+
 // [appearance.turntable]
 struct AppearanceTurntableOptions {
   std::string rig = "person.h5";      // the person's rig (person fit), or any rig file
@@ -55,10 +85,7 @@ struct AppearanceTurntableOptions {
   std::string texture = "";           // albedo texture file ("": a plain albedo)
   std::string texture_dataset = "/texture/albedo";  // its dataset (io/texture_file.h)
   std::string lighting = "lit";       // lit: ambient and a key light; none: the albedo itself
-  int batch = 16;                     // views per rank per round (a checkpoint per round)
-  int threads = 0;                    // OpenMP threads per rank (0: cores / ranks on the node)
-  std::string sheet = "";             // contact sheet PNG ("": OUT with _sheet.png; "none")
-  int sheet_count = 40;               // views in the sheet, evenly spread
+  ViewRunOptions run;                 // rounds, threads, contact sheet
 
   template <class V>
   void Visit(V&& v) {
@@ -77,10 +104,7 @@ struct AppearanceTurntableOptions {
     v("texture", texture, "albedo texture file (\"\": a plain skin-coloured albedo)");
     v("texture_dataset", texture_dataset, "the texture's dataset in that file");
     v("lighting", lighting, "lit: ambient light and a key light; none: the albedo itself");
-    v("batch", batch, "views per rank per round; each round is a checkpoint");
-    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
-    v("sheet", sheet, "contact sheet PNG of the views (\"\": OUT with _sheet.png; none: no sheet)");
-    v("sheet_count", sheet_count, "views in the contact sheet, evenly spread over the grid");
+    run.Visit(v);
   }
   bool Check(std::string* why) const {
     if (views < 1) { *why = "views must be at least 1"; return false; }
@@ -100,17 +124,10 @@ struct AppearanceTurntableOptions {
       *why = "lighting must be lit or none, not " + lighting;
       return false;
     }
-    if (batch < 1 || threads < 0 || sheet_count < 1) {
-      *why = "batch and sheet_count must be positive, threads >= 0";
-      return false;
-    }
     face::CropOptions crop{size, crop_padding, crop_raise};
-    return crop.Check(why);
+    return crop.Check(why) && run.Check(why);
   }
-  std::string SheetPath() const { return sheet.empty() ? WithSuffix(out, "_sheet.png") : sheet; }
-  void DerivedOutputs(std::vector<NamedPath>* outputs) const {
-    if (sheet != "none") outputs->push_back({"sheet", SheetPath(), OutputKind::kImage});
-  }
+  void DerivedOutputs(std::vector<NamedPath>* outputs) const { run.DerivedOutputs(out, outputs); }
 };
 
 // The per-view datasets of a turntable file.
@@ -163,8 +180,8 @@ class ViewSource {
 class ViewsRun {
  public:
   struct Settings {
-    std::string stage, out, sheet;  // sheet: PNG path, or "none"
-    int batch = 16, threads = 0, sheet_count = 40;
+    std::string stage, out;
+    ViewRunOptions run;
   };
   ViewsRun(const Settings& settings, const StageContext& ctx, const io::Config& resolved,
            const rig::Rig& rig, const ViewSource& source, const render::Lighting& lighting,
@@ -184,11 +201,11 @@ class ViewsRun {
         "views");
     output_ = std::move(opened.output);
     if (!opened.up_to_date) {
-      const int threads = ThreadsPerRank(s_.threads);
+      const int threads = ThreadsPerRank(s_.run.threads);
       renderers_ = std::vector<ViewRenderer>(threads);
       FrameLoopOptions loop;
       loop.what = s_.stage;
-      loop.batch = s_.batch;
+      loop.batch = s_.run.batch;
       loop.threads = threads;
       RunFrameLoop(
           comm_, opened.pending, n, loop,
@@ -201,7 +218,7 @@ class ViewsRun {
       });
     }
     if (comm_.IsMainRank()) {
-      if (s_.sheet != "none") WriteSheet();
+      if (s_.run.sheet != "none") WriteSheet();
       FC_INFO("{}: {} views -> {}", s_.stage, n, s_.out);
     }
   }
@@ -269,7 +286,7 @@ class ViewsRun {
   void WriteSheet() const {
     io::H5File f = io::H5File::OpenRead(s_.out);
     const int64_t n = source_.NumViews();
-    const int64_t count = std::min<int64_t>(s_.sheet_count, n);
+    const int64_t count = std::min<int64_t>(s_.run.sheet_count, n);
     std::vector<Image8> tiles;
     for (int64_t k = 0; k < count; ++k) {
       const int64_t view = count == 1 ? 0 : k * (n - 1) / (count - 1);
@@ -279,7 +296,7 @@ class ViewsRun {
     }
     render::ContactSheetOptions sheet;
     sheet.columns = static_cast<int>(std::min<int64_t>(count, 10));
-    io::WriteImage(s_.sheet, render::ContactSheet(tiles, sheet));
+    io::WriteImage(s_.run.SheetPath(s_.out), render::ContactSheet(tiles, sheet));
   }
 
   const Settings s_;
@@ -364,8 +381,7 @@ void RunAppearanceTurntable(const StageFlags& flags, AppState* state) {
     shading.specular_strength = 0.f;
   }
   const TurntableSource source(o, rig);
-  ViewsRun::Settings settings{"appearance turntable", o.out, o.sheet == "none" ? o.sheet : o.SheetPath(),
-                              o.batch, o.threads, o.sheet_count};
+  const ViewsRun::Settings settings{"appearance turntable", o.out, o.run};
   ViewsRun(settings, ctx, resolved, rig, source, lighting, shading,
            texture.empty() ? nullptr : &texture).Run();
 }
@@ -377,10 +393,7 @@ struct AppearanceFramesOptions {
   std::string track = "track.h5";     // track output of those frames
   std::string rig = "person.h5";      // the rig that was tracked
   std::string out = "frame_views.h5"; // output file
-  int batch = 16;                     // frames per rank per round (a checkpoint per round)
-  int threads = 0;                    // OpenMP threads per rank (0: cores / ranks on the node)
-  std::string sheet = "";             // contact sheet PNG ("": OUT with _sheet.png; "none")
-  int sheet_count = 40;               // frames in the sheet, evenly spread
+  ViewRunOptions run;                 // rounds, threads, contact sheet
 
   template <class V>
   void Visit(V&& v) {
@@ -389,22 +402,10 @@ struct AppearanceFramesOptions {
     v("track", track, "track output of those frames");
     v("rig", rig, "the rig that was tracked (person fit's output)");
     v("out", out, "output file (HDF5), laid out as appearance turntable's");
-    v("batch", batch, "frames per rank per round; each round is a checkpoint");
-    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
-    v("sheet", sheet, "contact sheet PNG of the frames (\"\": OUT with _sheet.png; none: no sheet)");
-    v("sheet_count", sheet_count, "frames in the contact sheet, evenly spread");
+    run.Visit(v);
   }
-  bool Check(std::string* why) const {
-    if (batch < 1 || threads < 0 || sheet_count < 1) {
-      *why = "batch and sheet_count must be positive, threads >= 0";
-      return false;
-    }
-    return true;
-  }
-  std::string SheetPath() const { return sheet.empty() ? WithSuffix(out, "_sheet.png") : sheet; }
-  void DerivedOutputs(std::vector<NamedPath>* outputs) const {
-    if (sheet != "none") outputs->push_back({"sheet", SheetPath(), OutputKind::kImage});
-  }
+  bool Check(std::string* why) const { return run.Check(why); }
+  void DerivedOutputs(std::vector<NamedPath>* outputs) const { run.DerivedOutputs(out, outputs); }
 };
 
 // Tracked footage as views: each frame's image with the tracked rig in its camera (the crop's,
@@ -464,8 +465,7 @@ void RunAppearanceFrames(const StageFlags& flags, AppState* state) {
   const rig::Rig rig = ReadViewRig(ctx.comm, o.rig);
   std::unique_ptr<TrackedFramesSource> source;
   dist::CoordinateExceptions(ctx.comm, [&] { source = std::make_unique<TrackedFramesSource>(o, rig); });
-  ViewsRun::Settings settings{"appearance frames", o.out, o.sheet == "none" ? o.sheet : o.SheetPath(),
-                              o.batch, o.threads, o.sheet_count};
+  const ViewsRun::Settings settings{"appearance frames", o.out, o.run};
   ViewsRun(settings, ctx, resolved, rig, *source, render::Lighting(), render::ShadingOptions(),
            nullptr).Run();
 }
@@ -487,7 +487,8 @@ struct AppearanceGatherOptions {
     v("images", images, "file with an image of every view, e.g. deepfake infer's translations "
                         "(\"\": the turntable's own renders)");
     v("dataset", dataset, "image dataset in that file (\"\": /frames/translated, else /frames/image)");
-    v("out", out, "output file (HDF5): /texture/albedo, /texture/confidence, /texture/particles");
+    v("out", out, "output file (HDF5): /texture/albedo (holes filled by push-pull), "
+                  "/texture/confidence (0 in the holes), /texture/particles");
     v("texture_size", texture_size, "texture width and height (texels)");
     v("neighbours", gather.neighbours, "particles each texel gathers (k)");
     v("max_radius_texels", gather.max_radius_texels,
@@ -576,8 +577,9 @@ void RunAppearanceGather(const StageFlags& flags, AppState* state) {
   const std::vector<int32_t> charts = appearance::UVCharts(rig);
   const std::vector<appearance::Particle> particles = ReadParticles(o, charts);
   const render::TexelMap texels = render::BakeTexelMap(rig, o.texture_size);
-  const appearance::GatheredTexture gathered =
+  appearance::GatheredTexture gathered =
       appearance::GatherParticles(particles, texels, charts, o.gather);
+  appearance::FillHoles(gathered.confidence, &gathered.color);
   int64_t covered = 0, layout = 0;
   for (size_t i = 0; i < texels.triangle.size(); ++i) {
     layout += texels.Covered(i);
