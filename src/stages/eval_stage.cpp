@@ -626,6 +626,7 @@ void RunEvalPerson(const StageFlags& flags, AppState* state) {
 struct EvalAppearanceOptions {
   std::string truth = "clip.h5";      // a synthetic clip: its /identity/albedo and /rig
   std::string texture = "texture.h5"; // appearance gather output
+  std::string naive = "";             // the naive capture of the same views ("": none)
   bool json = true;                   // print one JSON object (else a table)
   std::string out = "";               // also write the JSON to this file
 
@@ -633,6 +634,8 @@ struct EvalAppearanceOptions {
   void Visit(V&& v) {
     v("truth", truth, "synthetic clip whose /identity/albedo is the true albedo and /rig the person");
     v("texture", texture, "captured texture (appearance gather output)");
+    v("naive", naive, "the naive capture (appearance gather of appearance frames: the footage's "
+                      "own pixels splatted through the tracked rig), scored beside it (\"\": none)");
     v("json", json, "print one JSON object (false: a readable table)");
     v("out", out, "also write the JSON object to this file (empty: none)");
   }
@@ -649,25 +652,37 @@ void RunEvalAppearance(const StageFlags& flags, AppState* state) {
   if (!ctx.comm.IsMainRank()) return;
   const rig::Rig truth_rig = io::ReadRigFile(o.truth);
   const ImageF truth = io::ReadColorTexture(o.truth, io::kTrueAlbedoPath);
-  const ImageF captured = io::ReadColorTexture(o.texture, io::kTextureAlbedoPath);
-  const int N = captured.width;
-  ImageF confidence(N, N, 1);
-  confidence.data = io::H5File::OpenRead(o.texture).Read<float>(io::kTextureConfidencePath, {N, N});
-  // The truth at the capture's resolution (bilinear, as a renderer samples it).
-  ImageF truth_resampled(N, N, 3);
-  for (int y = 0; y < N; ++y) {
-    for (int x = 0; x < N; ++x) {
-      const Eigen::Vector3f c = render::SampleBilinear(truth, (x + 0.5f) / N, 1.f - (y + 0.5f) / N);
-      for (int k = 0; k < 3; ++k) truth_resampled.at(x, y, k) = c[k];
+  // A capture against the truth resampled to its resolution (bilinear, as a renderer samples).
+  auto score = [&](const std::string& path) {
+    const ImageF captured = io::ReadColorTexture(path, io::kTextureAlbedoPath);
+    const int N = captured.width;
+    ImageF confidence(N, N, 1);
+    confidence.data = io::H5File::OpenRead(path).Read<float>(io::kTextureConfidencePath, {N, N});
+    ImageF truth_resampled(N, N, 3);
+    for (int y = 0; y < N; ++y) {
+      for (int x = 0; x < N; ++x) {
+        const Eigen::Vector3f c = render::SampleBilinear(truth, (x + 0.5f) / N, 1.f - (y + 0.5f) / N);
+        for (int k = 0; k < 3; ++k) truth_resampled.at(x, y, k) = c[k];
+      }
     }
+    const render::TexelMap texels = render::BakeTexelMap(truth_rig, N);
+    return std::make_pair(N, appearance::CompareTextures(captured, confidence, truth_resampled,
+                                                         appearance::FaceRegionMask(truth_rig, texels)));
+  };
+  const auto [N, m] = score(o.texture);
+  std::string naive_json;
+  double naive_psnr = 0.;
+  if (!o.naive.empty()) {
+    const auto naive = score(o.naive).second;
+    naive_psnr = naive.psnr_db;
+    naive_json = ", \"psnr_naive_db\": " + JsonNumber(naive.psnr_db) +
+                 ", \"coverage_naive\": " + JsonNumber(naive.coverage);
   }
-  const render::TexelMap texels = render::BakeTexelMap(truth_rig, N);
-  const appearance::TextureComparison m = appearance::CompareTextures(
-      captured, confidence, truth_resampled, appearance::FaceRegionMask(truth_rig, texels));
   std::ostringstream js;
   js << "{\"psnr_face_db\": " << JsonNumber(m.psnr_db)
      << ", \"psnr_flat_db\": " << JsonNumber(m.psnr_flat_db)
-     << ", \"coverage\": " << JsonNumber(m.coverage) << ", \"face_texels\": " << m.face_texels
+     << naive_json << ", \"coverage\": " << JsonNumber(m.coverage)
+     << ", \"face_texels\": " << m.face_texels
      << ", \"gain\": [" << JsonNumber(m.gain[0]) << ", " << JsonNumber(m.gain[1]) << ", "
      << JsonNumber(m.gain[2]) << "], \"texture_size\": " << N
      << ", \"region\": \"face (brows to chin, ear to ear; no eyes, hair or mouth inside), "
@@ -676,8 +691,10 @@ void RunEvalAppearance(const StageFlags& flags, AppState* state) {
     std::cout << js.str() << std::endl;
   } else {
     std::printf("face-region PSNR against the true albedo (%lld texels, %.1f%% covered):\n"
-                "  captured texture  %.2f dB\n  flat colour       %.2f dB\n",
-                static_cast<long long>(m.face_texels), 100. * m.coverage, m.psnr_db, m.psnr_flat_db);
+                "  captured texture  %.2f dB\n",
+                static_cast<long long>(m.face_texels), 100. * m.coverage, m.psnr_db);
+    if (!o.naive.empty()) std::printf("  naive capture     %.2f dB\n", naive_psnr);
+    std::printf("  flat colour       %.2f dB\n", m.psnr_flat_db);
   }
   if (!o.out.empty()) {
     std::ofstream file(o.out);
@@ -725,7 +742,7 @@ void RegisterEval(CLI::App* app, AppState* state) {
       "of the UV map after one gain per colour channel (the clip's lighting is baked into any "
       "capture), beside a flat texture of the capture's mean colour, and the coverage; one JSON "
       "object",
-      PathKeys{{"truth", "texture"}, {{"out", OutputKind::kText}}},
+      PathKeys{{"truth", "texture", "naive"}, {{"out", OutputKind::kText}}},
       RunEvalAppearance);
 }
 
