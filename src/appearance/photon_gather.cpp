@@ -223,6 +223,23 @@ void FillHoles(const ImageF& confidence, ImageF* color) {
   }
 }
 
+void SilhouetteInterior(const ImageF& uv_image, int margin, ImageF* mask) {
+  const int W = uv_image.width, H = uv_image.height;
+  *mask = ImageF(W, H, 1);
+  for (int y = 0; y < H; ++y) {
+    for (int x = 0; x < W; ++x) {
+      bool inside = true;
+      for (int dy = -margin; dy <= margin && inside; ++dy) {
+        for (int dx = -margin; dx <= margin && inside; ++dx) {
+          const int xx = x + dx, yy = y + dy;
+          inside = xx >= 0 && xx < W && yy >= 0 && yy < H && uv_image.at(xx, yy, 2) > 0.5f;
+        }
+      }
+      mask->at(x, y) = inside ? 1.f : 0.f;
+    }
+  }
+}
+
 void AppendImageParticles(const ImageF& image, const ImageF& uv_image,
                           const Image<int32_t>& triangles, const std::vector<int32_t>& charts,
                           const ImageF* mask, std::vector<Particle>* particles) {

@@ -82,6 +82,17 @@ GatheredTexture GatherParticles(const std::vector<Particle>& particles,
 //   color       3 channels, filled in place
 void FillHoles(const ImageF& confidence, ImageF* color);
 
+// The pixels of U(I) at least `margin` pixels inside the head's silhouette: 1 where every
+// pixel within `margin` (a square) is covered, else 0. Pixels at the silhouette see the
+// surface at grazing angles and, in a translation, the background bleeding into the face.
+//
+// Inputs:
+//   uv_image  U(I) (render::RenderUVImage: u, v, coverage)
+//   margin    pixels; 0 keeps every covered pixel
+// Outputs:
+//   mask      1 channel, U(I)'s size
+void SilhouetteInterior(const ImageF& uv_image, int margin, ImageF* mask);
+
 // The particles of one image: every pixel with U(I) coverage > 0.5 and a visible triangle.
 //
 // Inputs:

@@ -477,6 +477,7 @@ struct AppearanceGatherOptions {
   std::string dataset = "";            // their dataset ("": /frames/translated, else /frames/image)
   std::string out = "texture.h5";      // output file
   int texture_size = 512;              // texture width and height (texels)
+  int edge_margin_px = 2;              // pixels this close to the silhouette are not splatted
   appearance::GatherOptions gather;
   std::string exr = "";                // linear EXR of the texture ("": OUT with .exr; none)
   std::string png = "";                // sRGB PNG of the texture ("": OUT with .png; none)
@@ -490,6 +491,9 @@ struct AppearanceGatherOptions {
     v("out", out, "output file (HDF5): /texture/albedo (holes filled by push-pull), "
                   "/texture/confidence (0 in the holes), /texture/particles");
     v("texture_size", texture_size, "texture width and height (texels)");
+    v("edge_margin_px", edge_margin_px,
+      "pixels within this distance of the head's silhouette are not splatted (grazing angles, "
+      "background bleeding into a translation's face)");
     v("neighbours", gather.neighbours, "particles each texel gathers (k)");
     v("max_radius_texels", gather.max_radius_texels,
       "a texel whose k-th nearest particle is farther than this stays empty (texels)");
@@ -501,6 +505,10 @@ struct AppearanceGatherOptions {
   bool Check(std::string* why) const {
     if (texture_size < 8 || texture_size > 8192) {
       *why = "texture_size must be in [8, 8192]";
+      return false;
+    }
+    if (edge_margin_px < 0 || edge_margin_px > 32) {
+      *why = "edge_margin_px must be in [0, 32]";
       return false;
     }
     return gather.Check(why);
@@ -552,7 +560,7 @@ std::vector<appearance::Particle> ReadParticles(const AppearanceGatherOptions& o
                       " images, " + o.views + " has " + std::to_string(count) + " views");
   }
   Image8 image(static_cast<int>(image_shape[2]), static_cast<int>(image_shape[1]), 3);
-  ImageF linear, uv(size, size, 3);
+  ImageF linear, uv(size, size, 3), interior;
   Image<int32_t> triangles(size, size, 1);
   std::vector<appearance::Particle> particles;
   for (int64_t v = 0; v < count; ++v) {
@@ -560,7 +568,8 @@ std::vector<appearance::Particle> ReadParticles(const AppearanceGatherOptions& o
     views.ReadFrames<float>("/frames/uv", v, 1, uv.data.data());
     views.ReadFrames<int32_t>("/frames/triangle", v, 1, triangles.data.data());
     render::Image8ToLinear(image, true, &linear);
-    appearance::AppendImageParticles(ResampleTo(linear, size), uv, triangles, charts, nullptr,
+    appearance::SilhouetteInterior(uv, o.edge_margin_px, &interior);
+    appearance::AppendImageParticles(ResampleTo(linear, size), uv, triangles, charts, &interior,
                                      &particles);
   }
   return particles;

@@ -93,6 +93,14 @@ const std::map<std::string, StageInputs>& ValidRuns() {
        {{{"truth", "samples.h5"}, {"track", "track.h5"}, {"rig", "rig.h5"}, {"truth_rig", ""}},
         "", {}}},
       {"eval.person", {{{"truth", "clip.h5"}, {"person", "person.h5"}}, "", {}}},
+      {"appearance.turntable",
+       {{{"rig", "clip.h5"}, {"texture", ""}}, "--views 4 --size 32 --sheet none", {}}},
+      {"appearance.frames",
+       {{{"frames", "samples.h5"}, {"track", "track.h5"}, {"rig", "rig.h5"}},
+        "--dataset /samples/segmentation --sheet none", {}}},
+      {"appearance.gather", {{{"views", "turntable.h5"}, {"images", ""}}, "--texture-size 32", {}}},
+      {"eval.appearance",
+       {{{"truth", "clip.h5"}, {"texture", "texture.h5"}, {"naive", ""}}, "", {}}},
       {"eval.landmarks",
        {{{"frames", "frames.h5"}, {"track", "track.h5"}, {"rig", "rig.h5"}}, "", {}}},
   };
@@ -143,7 +151,9 @@ class BadInputSweep : public ::testing::Test {
         "--landmark-rounds 1 --refine-rounds 0 --threads 1",
         "curate build --frames frames.h5 --out curation.h5 --clusters 2,2",
         "rig export --rig rig.h5 --obj-dir objs --gltf rig.glb",
-        "render --rig rig.h5 --out face.png"};
+        "render --rig rig.h5 --out face.png",
+        "appearance turntable --rig clip.h5 --out turntable.h5 --views 4 --size 32 --sheet none",
+        "appearance gather --views turntable.h5 --out texture.h5 --texture-size 32"};
     for (const std::string& step : steps) {
       const testing::CommandResult r = testing::RunCommand(
           "cd " + Quote(dir_->path()) + " && " + testing::BuildDir() + "/facecap " + step);
