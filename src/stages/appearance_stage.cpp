@@ -25,6 +25,7 @@
 #include "rig/evaluate.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
+#include "stages/frames_video.h"
 #include "stages/ingested_frames.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
@@ -85,6 +86,7 @@ struct AppearanceTurntableOptions {
   std::string texture = "";           // albedo texture file ("": a plain albedo)
   std::string texture_dataset = "/texture/albedo";  // its dataset (io/texture_file.h)
   std::string lighting = "lit";       // lit: ambient and a key light; none: the albedo itself
+  bool video = false;                 // also an mp4 of the views in turntable order
   ViewRunOptions run;                 // rounds, threads, contact sheet
 
   template <class V>
@@ -104,6 +106,7 @@ struct AppearanceTurntableOptions {
     v("texture", texture, "albedo texture file (\"\": a plain skin-coloured albedo)");
     v("texture_dataset", texture_dataset, "the texture's dataset in that file");
     v("lighting", lighting, "lit: ambient light and a key light; none: the albedo itself");
+    v("video", video, "also an mp4 of the views in turntable order (OUT with .mp4, 25 fps)");
     run.Visit(v);
   }
   bool Check(std::string* why) const {
@@ -127,7 +130,10 @@ struct AppearanceTurntableOptions {
     face::CropOptions crop{size, crop_padding, crop_raise};
     return crop.Check(why) && run.Check(why);
   }
-  void DerivedOutputs(std::vector<NamedPath>* outputs) const { run.DerivedOutputs(out, outputs); }
+  void DerivedOutputs(std::vector<NamedPath>* outputs) const {
+    run.DerivedOutputs(out, outputs);
+    if (video) outputs->push_back({"video", WithSuffix(out, ".mp4"), OutputKind::kVideo});
+  }
 };
 
 // The per-view datasets of a turntable file.
@@ -182,6 +188,7 @@ class ViewsRun {
   struct Settings {
     std::string stage, out;
     ViewRunOptions run;
+    bool video = false;  // an mp4 of the views beside out
   };
   ViewsRun(const Settings& settings, const StageContext& ctx, const io::Config& resolved,
            const rig::Rig& rig, const ViewSource& source, const render::Lighting& lighting,
@@ -219,6 +226,7 @@ class ViewsRun {
     }
     if (comm_.IsMainRank()) {
       if (s_.run.sheet != "none") WriteSheet();
+      if (s_.video) WriteFramesVideo(s_.out, WithSuffix(s_.out, ".mp4"), 25., s_.stage);
       FC_INFO("{}: {} views -> {}", s_.stage, n, s_.out);
     }
   }
@@ -381,7 +389,7 @@ void RunAppearanceTurntable(const StageFlags& flags, AppState* state) {
     shading.specular_strength = 0.f;
   }
   const TurntableSource source(o, rig);
-  const ViewsRun::Settings settings{"appearance turntable", o.out, o.run};
+  const ViewsRun::Settings settings{"appearance turntable", o.out, o.run, o.video};
   ViewsRun(settings, ctx, resolved, rig, source, lighting, shading,
            texture.empty() ? nullptr : &texture).Run();
 }

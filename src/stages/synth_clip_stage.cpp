@@ -13,6 +13,7 @@
 #include "rig/demo_head.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
+#include "stages/frames_video.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
 #include "synth/appearance.h"
@@ -99,15 +100,6 @@ Image8 BackgroundPhoto(const std::string& folder, int background_seed) {
   std::sort(files.begin(), files.end());
   Rng rng(static_cast<uint64_t>(background_seed), 0xF0D0u);
   return io::ReadImage8(files[rng.UniformInt(static_cast<int64_t>(files.size()))], 3);
-}
-
-void WriteClipVideo(const std::string& clip_path, const std::string& video_path, double fps) {
-  io::H5File f = io::H5File::OpenRead(clip_path);
-  const io::Shape shape = f.DatasetShape("/frames/image");
-  std::vector<Image8> frames(shape[0], Image8(static_cast<int>(shape[2]), static_cast<int>(shape[1]), 3));
-  for (int64_t i = 0; i < shape[0]; ++i) f.ReadFrames<uint8_t>("/frames/image", i, 1, frames[i].data.data());
-  const std::string codec = synth::WriteVideo(video_path, frames, fps);
-  FC_INFO("synth clip: {} frames -> {} ({})", frames.size(), video_path, codec);
 }
 
 // Per-thread rendering state.
@@ -331,7 +323,7 @@ class SynthClipRun {
       if (fresh) {
         FC_INFO("synth clip: {} is up to date", video);
       } else {
-        WriteClipVideo(o_.out, video, co_.fps);
+        WriteFramesVideo(o_.out, video, co_.fps, "synth clip");
       }
     });
   }
