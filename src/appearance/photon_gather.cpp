@@ -7,6 +7,7 @@
 
 #include <nanoflann.hpp>
 
+#include "render/shading.h"
 #include "util/errors.h"
 
 namespace facecap::appearance {
@@ -201,17 +202,11 @@ void FillHoles(const ImageF& confidence, ImageF* color) {
           for (int c = 0; c < 3; ++c) filled[l].at(x, y, c) = level.color.at(x, y, c) / weight;
           continue;
         }
-        const ImageF& coarse = filled[l + 1];  // exists: the coarsest level has weight
-        const float u = (x + 0.5f) / 2.f - 0.5f, v = (y + 0.5f) / 2.f - 0.5f;
-        const int x0 = std::clamp(static_cast<int>(std::floor(u)), 0, coarse.width - 1);
-        const int y0 = std::clamp(static_cast<int>(std::floor(v)), 0, coarse.height - 1);
-        const int x1 = std::min(x0 + 1, coarse.width - 1), y1 = std::min(y0 + 1, coarse.height - 1);
-        const float fx = std::clamp(u - x0, 0.f, 1.f), fy = std::clamp(v - y0, 0.f, 1.f);
-        for (int c = 0; c < 3; ++c) {
-          filled[l].at(x, y, c) =
-              (1 - fy) * ((1 - fx) * coarse.at(x0, y0, c) + fx * coarse.at(x1, y0, c)) +
-              fy * ((1 - fx) * coarse.at(x0, y1, c) + fx * coarse.at(x1, y1, c));
-        }
+        // The coarser level (it exists: the coarsest level has weight) at this texel's centre.
+        const ImageF& coarse = filled[l + 1];
+        const Eigen::Vector3f c = render::SampleBilinear(
+            coarse, (x + 0.5f) / (2.f * coarse.width), 1.f - (y + 0.5f) / (2.f * coarse.height));
+        for (int k = 0; k < 3; ++k) filled[l].at(x, y, k) = c[k];
       }
     }
   }

@@ -529,22 +529,14 @@ struct AppearanceGatherOptions {
   }
 };
 
-// Bilinear resampling of an RGB image to size x size (pixel centres at i + 0.5).
+// Bilinear resampling of an RGB image to size x size (clamped at the edges).
 ImageF ResampleTo(const ImageF& image, int size) {
   if (image.width == size && image.height == size) return image;
   ImageF out(size, size, 3);
-  const float sx = static_cast<float>(image.width) / size, sy = static_cast<float>(image.height) / size;
   for (int y = 0; y < size; ++y) {
     for (int x = 0; x < size; ++x) {
-      const float u = (x + 0.5f) * sx - 0.5f, v = (y + 0.5f) * sy - 0.5f;
-      const int x0 = std::clamp(static_cast<int>(std::floor(u)), 0, image.width - 1);
-      const int y0 = std::clamp(static_cast<int>(std::floor(v)), 0, image.height - 1);
-      const int x1 = std::min(x0 + 1, image.width - 1), y1 = std::min(y0 + 1, image.height - 1);
-      const float fx = std::clamp(u - x0, 0.f, 1.f), fy = std::clamp(v - y0, 0.f, 1.f);
-      for (int c = 0; c < 3; ++c) {
-        out.at(x, y, c) = (1 - fy) * ((1 - fx) * image.at(x0, y0, c) + fx * image.at(x1, y0, c)) +
-                          fy * ((1 - fx) * image.at(x0, y1, c) + fx * image.at(x1, y1, c));
-      }
+      const Eigen::Vector3f c = render::SampleBilinear(image, (x + 0.5f) / size, 1.f - (y + 0.5f) / size);
+      for (int k = 0; k < 3; ++k) out.at(x, y, k) = c[k];
     }
   }
   return out;
