@@ -24,6 +24,7 @@
 #include "render/turntable.h"
 #include "rig/evaluate.h"
 #include "stages/cli.h"
+#include "stages/crop_framing.h"
 #include "stages/frame_loop.h"
 #include "stages/frames_video.h"
 #include "stages/ingested_frames.h"

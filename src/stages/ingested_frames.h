@@ -13,9 +13,7 @@
 #include <Eigen/Core>
 
 #include "render/camera.h"
-#include "rig/evaluate.h"
 #include "rig/pose.h"
-#include "rig/rig.h"
 
 namespace facecap::stages {
 
@@ -65,17 +63,6 @@ class IngestedFrames {
 // A head pose seen by the crop camera `view`, from the pose in the source camera, and back.
 rig::RigidPose PoseInCrop(const rig::RigidPose& source_pose, const render::CropView& view);
 rig::RigidPose PoseInSource(const rig::RigidPose& crop_pose, const render::CropView& view);
-
-// A rendered head framed the way ingest crops footage: the head posed at *pose with `weights`
-// in `camera`, its 68 landmark vertices projected, the similarity that takes their
-// crop-alignment landmarks onto `crop_template` (face::CropTemplate of the crop options), and
-// that crop as a camera of size x size pixels. Returns the crop's camera; *pose becomes the
-// same head seen by it; *posed receives the head's vertices posed at the original pose.
-render::Camera IngestCropCamera(const rig::Rig& rig, const rig::RigEvaluator& evaluator,
-                                const render::Camera& camera,
-                                const Eigen::Matrix<double, 68, 2, Eigen::RowMajor>& crop_template,
-                                int size, const Eigen::VectorXf& weights, rig::RigidPose* pose,
-                                rig::Vertices* posed);
 
 }  // namespace facecap::stages
 

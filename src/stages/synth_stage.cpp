@@ -11,6 +11,7 @@
 #include "render/rasterizer.h"
 #include "rig/evaluate.h"
 #include "stages/cli.h"
+#include "stages/crop_framing.h"
 #include "stages/frame_loop.h"
 #include "stages/ingested_frames.h"
 #include "stages/registry.h"
