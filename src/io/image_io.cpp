@@ -1,7 +1,9 @@
 #include "io/image_io.h"
 
 #include <filesystem>
+#include <vector>
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include "util/errors.h"
@@ -47,6 +49,20 @@ void WriteImage(const std::string& path, const ImageF& image) {
     q.data[i] = static_cast<uint8_t>(v * 255.f + 0.5f);
   }
   WriteAny(path, q, OIIO::TypeDesc::UINT8);
+}
+
+std::string EncodePng(const Image8& image) {
+  if (image.empty()) throw OutputError("EncodePng: empty image");
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  auto out = OIIO::ImageOutput::create("image.png", &proxy);
+  if (!out) throw OutputError("EncodePng: no PNG writer: " + OIIO::geterror());
+  const OIIO::ImageSpec spec(image.width, image.height, image.channels, OIIO::TypeDesc::UINT8);
+  if (!out->open("image.png", spec) ||
+      !out->write_image(OIIO::TypeDesc::UINT8, image.data.data()) || !out->close()) {
+    throw OutputError("EncodePng: cannot encode: " + out->geterror());
+  }
+  return std::string(bytes.begin(), bytes.end());
 }
 
 Image8 ReadImage8(const std::string& path, int channels) {

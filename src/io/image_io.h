@@ -16,6 +16,8 @@ void WriteImage(const std::string& path, const ImageF& image);
 // Reads any supported image as 8-bit with `channels` channels (1 or 3): grayscale is
 // replicated, alpha dropped, 16-bit and float data converted. FileIOError names the file.
 Image8 ReadImage8(const std::string& path, int channels = 3);
+// The bytes of a PNG file of an 8-bit image (1, 3 or 4 channels), encoded in memory.
+std::string EncodePng(const Image8& image);
 
 }  // namespace facecap::io
 

@@ -23,6 +23,7 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include "io/image_io.h"
 #include "rig/evaluate.h"
 #include "util/errors.h"
 
@@ -384,6 +385,9 @@ class GltfBufferBuilder {
                          ",\"type\":\"SCALAR\"}");
     return static_cast<int>(accessors_.size()) - 1;
   }
+
+  // Appends raw bytes (an encoded image) as one bufferView; returns the view index.
+  int AddBytes(const std::string& data) { return AddView(data.data(), data.size(), 0); }
 
   const std::string& bytes() const { return bytes_; }
   std::string AccessorsJson() const { return JoinArray(accessors_); }
@@ -831,6 +835,7 @@ GltfVertices SplitAtSeams(const rig::Rig& rig) {
 // The accessors of the mesh: positions, uvs (-1: none), indices, one morph target per shape.
 struct GltfMeshAccessors {
   int position = -1, uv = -1, index = -1;
+  int image_view = -1;  // bufferView of the embedded base colour PNG (-1: none)
   std::vector<int> targets;
 };
 
@@ -879,6 +884,7 @@ std::string GltfMeshJson(const rig::Rig& rig, const GltfMeshAccessors& a) {
           std::to_string(a.position);
   if (a.uv >= 0) json += ",\"TEXCOORD_0\":" + std::to_string(a.uv);
   json += "},\"indices\":" + std::to_string(a.index) + ",\"mode\":4";
+  if (a.image_view >= 0) json += ",\"material\":0";
   if (num_shapes > 0) {
     json += ",\"targets\":[";
     for (int s = 0; s < num_shapes; ++s) {
@@ -895,6 +901,18 @@ std::string GltfMeshJson(const rig::Rig& rig, const GltfMeshAccessors& a) {
   }
   json += "}]";
   return json;
+}
+
+// ",materials" ... ",images": one material whose base colour is the embedded PNG, sampled
+// with mipmaps and clamped at the UV square's edges; not metallic, a skin-like roughness.
+std::string GltfMaterialJson(int image_view) {
+  return ",\"materials\":[{\"name\":\"skin\",\"pbrMetallicRoughness\":{\"baseColorTexture\":"
+         "{\"index\":0},\"metallicFactor\":0,\"roughnessFactor\":0.6}}],"
+         "\"textures\":[{\"sampler\":0,\"source\":0}],"
+         "\"samplers\":[{\"magFilter\":9729,\"minFilter\":9987,\"wrapS\":33071,"
+         "\"wrapT\":33071}],"
+         "\"images\":[{\"name\":\"albedo\",\"mimeType\":\"image/png\",\"bufferView\":" +
+         std::to_string(image_view) + "}]";
 }
 
 // ",animations": the morph-target weights per frame at `fps`, linearly interpolated.
@@ -917,6 +935,16 @@ std::string GltfAnimationJson(const std::vector<std::vector<float>>& animation_w
 
 // Writes the JSON (without its "buffers") and the buffer as a .glb container, or as .gltf
 // text with the buffer in a base64 data URI.
+void CheckGltfTexture(const rig::Rig& rig, const Image8* base_color, const std::string& path) {
+  if (!base_color) return;
+  if (rig.uvs.rows() == 0) {
+    throw InvalidInputError("cannot export " + path + ": a texture for a rig without UVs");
+  }
+  if (base_color->empty() || base_color->channels != 3) {
+    throw InvalidInputError("cannot export " + path + ": the texture must be a non-empty RGB image");
+  }
+}
+
 void WriteGltfFile(std::string json, std::string bytes, const std::string& path) {
   while (bytes.size() % 4) bytes += '\0';
   if (!EndsWith(path, ".glb")) {
@@ -943,13 +971,16 @@ void WriteGltfFile(std::string json, std::string bytes, const std::string& path)
 
 void WriteGltf(const rig::Rig& rig, const rig::Vertices& positions, bool morph_targets,
                const std::vector<std::vector<float>>* animation_weights, float fps,
-               const std::string& path) {
+               const Image8* base_color, const std::string& path) {
   const int num_shapes = morph_targets ? rig.NumShapes() : 0;
   CheckGltfAnimation(animation_weights, fps, num_shapes, path);
+  CheckGltfTexture(rig, base_color, path);
   const GltfVertices vertices = SplitAtSeams(rig);
   GltfBufferBuilder buffer;
-  const GltfMeshAccessors accessors = AddMeshData(rig, positions, num_shapes, vertices, &buffer);
+  GltfMeshAccessors accessors = AddMeshData(rig, positions, num_shapes, vertices, &buffer);
+  if (base_color) accessors.image_view = buffer.AddBytes(EncodePng(*base_color));
   std::string json = GltfMeshJson(rig, accessors);
+  if (base_color) json += GltfMaterialJson(accessors.image_view);
   if (animation_weights && !animation_weights->empty()) {
     json += GltfAnimationJson(*animation_weights, fps, num_shapes, &buffer);
   }
@@ -961,9 +992,10 @@ void WriteGltf(const rig::Rig& rig, const rig::Vertices& positions, bool morph_t
 }  // namespace
 
 void ExportRigToGltf(const rig::Rig& rig, const std::string& path,
-                     const std::vector<std::vector<float>>* animation_weights, float fps) {
+                     const std::vector<std::vector<float>>* animation_weights, float fps,
+                     const Image8* base_color) {
   CheckRigForExport(rig, path);
-  WriteGltf(rig, rig.neutral, true, animation_weights, fps, path);
+  WriteGltf(rig, rig.neutral, true, animation_weights, fps, base_color, path);
 }
 
 void ExportPosedMesh(const rig::Rig& rig, const rig::Vertices& posed, const std::string& path) {
@@ -983,7 +1015,7 @@ void ExportPosedMesh(const rig::Rig& rig, const rig::Vertices& posed, const std:
     ExportMeshObj(posed, rig.triangles, has_uvs ? &rig.uvs : nullptr,
                   has_uvs ? &rig.uv_triangles : nullptr, path);
   } else if (extension == ".glb" || extension == ".gltf") {
-    WriteGltf(rig, posed, false, nullptr, 30.f, path);
+    WriteGltf(rig, posed, false, nullptr, 30.f, nullptr, path);
   } else {
     throw InvalidInputError("ExportPosedMesh(" + path +
                             "): the extension must be .obj, .glb or .gltf");

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "rig/rig.h"
+#include "util/image.h"
 
 namespace facecap::io {
 
@@ -72,10 +73,12 @@ rig::Rig ImportRigFromGltf(const std::string& path);
 // mixing jaw shapes therefore mixes their jaw displacements linearly, not their angles).
 // Target names go to mesh.extras.targetNames. When animation_weights is given (one row per
 // frame, one weight per shape), a linear morph-weight animation at fps frames per second is
-// added.
+// added. When base_color is given (8-bit sRGB, row 0 at v = 1 as io/texture_file.h stores
+// textures), it is embedded as a PNG and the primitive gets a material with it as its base
+// colour texture; InvalidInputError when the rig has no UVs or the image is not RGB.
 void ExportRigToGltf(const rig::Rig& rig, const std::string& path,
                      const std::vector<std::vector<float>>* animation_weights = nullptr,
-                     float fps = 30.f);
+                     float fps = 30.f, const Image8* base_color = nullptr);
 
 // Writes one pose of a rig as a static mesh: `posed` (#V x 3, cm, e.g. from RigEvaluator)
 // with the rig's triangles and texture coordinates. The path's extension picks the format:

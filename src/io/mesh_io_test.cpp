@@ -5,8 +5,12 @@
 #include <fstream>
 #include <random>
 
+#include <assimp/Importer.hpp>
+#include <assimp/material.h>
+#include <assimp/scene.h>
 #include <gtest/gtest.h>
 
+#include "io/image_io.h"
 #include "rig/evaluate.h"
 #include "testing/testing.h"
 #include "util/errors.h"
@@ -317,6 +321,44 @@ TEST(GltfTest, GltfRoundTripWithAnimation) {
 
   std::vector<std::vector<float>> wrong = {{1.f, 2.f}};
   EXPECT_THROW(ExportRigToGltf(rig, tmp.File("bad.gltf"), &wrong), InvalidInputError);
+}
+
+// A texture embedded into a .glb: assimp finds one PNG, the material's base colour points at it,
+// and the PNG decodes to the very pixels given; the mesh still round-trips.
+TEST(GltfTest, GlbEmbedsTheBaseColourTexture) {
+  testing::TempDir tmp;
+  const Rig rig = CylinderRig(true);
+  Image8 texture(5, 4, 3);
+  for (size_t i = 0; i < texture.data.size(); ++i) texture.data[i] = static_cast<uint8_t>(13 * i);
+  ExportRigToGltf(rig, tmp.File("face.glb"), nullptr, 30.f, &texture);
+
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFile(tmp.File("face.glb"), 0);
+  ASSERT_NE(scene, nullptr) << importer.GetErrorString();
+  ASSERT_EQ(scene->mNumTextures, 1u);
+  const aiTexture* embedded = scene->mTextures[0];
+  EXPECT_EQ(embedded->mHeight, 0u);  // compressed: the PNG's bytes
+  EXPECT_TRUE(embedded->CheckFormat("png"));
+  ASSERT_EQ(scene->mNumMeshes, 1u);
+  const aiMaterial* material = scene->mMaterials[scene->mMeshes[0]->mMaterialIndex];
+  aiString where;
+  ASSERT_EQ(material->GetTexture(aiTextureType_DIFFUSE, 0, &where), aiReturn_SUCCESS);
+  EXPECT_STREQ(where.C_Str(), "*0");
+  WriteText(tmp.File("embedded.png"),
+            std::string(reinterpret_cast<const char*>(embedded->pcData), embedded->mWidth));
+  const Image8 back = ReadImage8(tmp.File("embedded.png"));
+  EXPECT_EQ(back.width, 5);
+  EXPECT_EQ(back.height, 4);
+  EXPECT_EQ(back.data, texture.data);
+  ExpectSameRig(rig, ImportRigFromGltf(tmp.File("face.glb")), 1e-4f);
+
+  const Image8 gray(4, 4, 1);
+  EXPECT_THROW(ExportRigToGltf(rig, tmp.File("bad.glb"), nullptr, 30.f, &gray), InvalidInputError);
+  Rig no_uvs = CylinderRig(false);
+  no_uvs.uvs.resize(0, 2);
+  no_uvs.uv_triangles.resize(0, 3);
+  EXPECT_THROW(ExportRigToGltf(no_uvs, tmp.File("bad.glb"), nullptr, 30.f, &texture),
+               InvalidInputError);
 }
 
 TEST(GltfTest, MissingOrBrokenFileRejected) {

@@ -32,4 +32,9 @@ ImageF ReadColorTexture(const std::string& path, const std::string& name) {
   return texture;
 }
 
+ImageF ReadRigTexture(const std::string& path) {
+  if (!H5File::OpenRead(path).Exists(kTextureAlbedoPath)) return ImageF();
+  return ReadColorTexture(path, kTextureAlbedoPath);
+}
+
 }  // namespace facecap::io

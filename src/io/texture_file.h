@@ -6,6 +6,9 @@
 //   /texture/albedo      a captured texture (facecap appearance gather); beside it
 //                        /texture/confidence [N, N] and /texture/particles [N, N]
 //   /identity/albedo     the true albedo of a synthetic person (synth clip), for evaluation
+//
+// A rig file that carries /texture/albedo beside /rig is a textured rig (appearance gather
+// writes one): render draws it with that texture, and rig export and export gltf embed it.
 #ifndef FACECAP_IO_TEXTURE_FILE_H_
 #define FACECAP_IO_TEXTURE_FILE_H_
 
@@ -27,6 +30,10 @@ void WriteColorTexture(H5File* file, const std::string& name, const ImageF& text
 // Reads colour texture `name` of file `path`. FileIOError naming the file when the dataset is
 // missing, not [N, N, 3] with N >= 1, or holds a value that is not finite.
 ImageF ReadColorTexture(const std::string& path, const std::string& name);
+
+// The albedo texture a rig file carries (/texture/albedo), or an empty image when it has none;
+// FileIOError as ReadColorTexture when it has one that is malformed.
+ImageF ReadRigTexture(const std::string& path);
 
 }  // namespace facecap::io
 

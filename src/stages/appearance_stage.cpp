@@ -497,8 +497,9 @@ struct AppearanceGatherOptions {
     v("images", images, "file with an image of every view, e.g. deepfake infer's translations "
                         "(\"\": the turntable's own renders)");
     v("dataset", dataset, "image dataset in that file (\"\": /frames/translated, else /frames/image)");
-    v("out", out, "output file (HDF5): /texture/albedo (holes filled by push-pull), "
-                  "/texture/confidence (0 in the holes), /texture/particles");
+    v("out", out, "output file (HDF5), a textured rig: the views' rig under /rig, "
+                  "/texture/albedo (holes filled by push-pull), /texture/confidence (0 in the "
+                  "holes), /texture/particles; render, rig export and export gltf use its texture");
     v("texture_size", texture_size, "texture width and height (texels)");
     v("edge_margin_px", edge_margin_px,
       "pixels within this distance of the head's silhouette are not splatted (grazing angles, "
@@ -597,6 +598,7 @@ void RunAppearanceGather(const StageFlags& flags, AppState* state) {
   }
   io::H5File f = io::H5File::CreateAtomic(o.out);
   f.WriteProvenance(MakeProvenance(ctx, "appearance gather", resolved));
+  io::WriteRig(rig, &f);
   io::WriteColorTexture(&f, io::kTextureAlbedoPath, gathered.color);
   const int64_t N = o.texture_size;
   f.Write<float>(io::kTextureConfidencePath, {N, N}, gathered.confidence.data.data());

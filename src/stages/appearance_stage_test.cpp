@@ -4,10 +4,16 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <utility>
 
 #include <gtest/gtest.h>
 
 #include "io/hdf5.h"
+#include "io/image_io.h"
+#include "io/rig_io.h"
+#include "io/texture_file.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -109,6 +115,47 @@ TEST_F(Appearance, GatheringTrueRendersCapturesTheTrueAlbedo) {
   auto plain = RunFacecap("eval appearance --truth " + Clip() + " --texture " + lit_texture);
   ASSERT_EQ(plain.code, 0) << plain.output;
   EXPECT_LT(JsonValue(plain.output, "psnr_face_db"), psnr - 10.) << plain.output;
+}
+
+// appearance gather's output is a textured rig; render draws a textured rig with its texture,
+// and rig export embeds it into the glTF.
+TEST_F(Appearance, ATexturedRigIsRenderedAndExportedWithItsTexture) {
+  const std::string views = dir_->File("rig_views.h5"), gathered = dir_->File("rig_texture.h5");
+  ASSERT_EQ(RunFacecap(Turntable(views)).code, 0);
+  auto g = RunFacecap("appearance gather --views " + views + " --texture-size 64 --out " + gathered);
+  ASSERT_EQ(g.code, 0) << g.output;
+  const rig::Rig rig = io::ReadRigFile(Clip());
+  EXPECT_EQ(io::ReadRigFile(gathered).neutral, rig.neutral);
+  EXPECT_EQ(io::ReadRigTexture(gathered).width, 64);
+  EXPECT_TRUE(io::ReadRigTexture(Clip()).empty());
+
+  // A rig whose texture is pure green renders green where the face is.
+  const std::string green = dir_->File("green.h5");
+  {
+    io::H5File f = io::H5File::CreateAtomic(green);
+    io::WriteRig(rig, &f);
+    ImageF texture(16, 16, 3);
+    for (size_t i = 0; i < texture.data.size(); ++i) texture.data[i] = i % 3 == 1 ? 0.8f : 0.f;
+    io::WriteColorTexture(&f, io::kTextureAlbedoPath, texture);
+    f.Commit();
+  }
+  for (const auto& [file, is_green] : {std::pair{green, true}, std::pair{Clip(), false}}) {
+    const std::string png = dir_->File(is_green ? "green.png" : "generic.png");
+    auto r = RunFacecap("render --rig " + file + " --mode shaded --size 96 --out " + png);
+    ASSERT_EQ(r.code, 0) << r.output;
+    const Image8 image = io::ReadImage8(png);
+    const uint8_t* centre = image.pixel(48, 48);
+    EXPECT_EQ(centre[1] > 3 * std::max(centre[0], centre[2]), is_green)
+        << file << ": centre pixel " << int(centre[0]) << " " << int(centre[1]) << " " << int(centre[2]);
+  }
+  const std::string glb = dir_->File("green.glb");
+  auto e = RunFacecap("rig export --rig " + green + " --gltf " + glb);
+  ASSERT_EQ(e.code, 0) << e.output;
+  std::ifstream in(glb, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(bytes.find("\"baseColorTexture\":{\"index\":0}"), std::string::npos);
+  EXPECT_NE(bytes.find("\"mimeType\":\"image/png\""), std::string::npos);
+  EXPECT_NE(bytes.find("\x89PNG"), std::string::npos);
 }
 
 TEST_F(Appearance, TrackedFramesBecomeViewsWhoseUVImageCoversTheFace) {

@@ -22,6 +22,7 @@
 #include "synth/appearance.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
+#include "stages/rig_texture.h"
 #include "stages/tracked_rig.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -105,7 +106,7 @@ struct ExportGltfOptions {
   template <class V>
   void Visit(V&& v) {
     v("track", track, "tracking output (HDF5) with per-frame weights");
-    v("rig", rig, "the rig that was tracked (HDF5)");
+    v("rig", rig, "the rig that was tracked (HDF5); a textured rig's texture is embedded");
     v("out", out, "glTF file (.glb binary or .gltf text)");
     v("fps", fps, "frame rate of the morph-target animation (0: the track's own, else 30)");
     datasets.Visit(v);
@@ -242,9 +243,11 @@ void RunExportGltf(const StageFlags& flags, AppState* state) {
     throw FileIOError(o.track + ": no tracked shape name matches a shape of " + o.rig);
   }
   const float fps = ExportFps(o.fps, o.track);
-  io::ExportRigToGltf(rig, o.out, &animation, fps);
-  FC_INFO("export gltf: {} morph targets ({} animated), {} frames at {} fps -> {}",
-          rig.NumShapes(), matched, animation.size(), fps, o.out);
+  const Image8 texture = ReadRigTextureSrgb(o.rig);
+  io::ExportRigToGltf(rig, o.out, &animation, fps, texture.empty() ? nullptr : &texture);
+  FC_INFO("export gltf: {} morph targets ({} animated), {} frames at {} fps{} -> {}",
+          rig.NumShapes(), matched, animation.size(), fps,
+          texture.empty() ? "" : ", the rig file's texture", o.out);
 }
 
 // [export.overlay]

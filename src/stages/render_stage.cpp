@@ -11,6 +11,7 @@
 #include "io/image_io.h"
 #include "io/mesh_io.h"
 #include "io/rig_io.h"
+#include "io/texture_file.h"
 #include "render/contact_sheet.h"
 #include "render/framing.h"
 #include "render/gbuffer_images.h"
@@ -45,7 +46,8 @@ struct RenderStageOptions {
 
   template <class V>
   void Visit(V&& v) {
-    v("rig", rig, "rig file (HDF5) from `facecap rig demo` or `facecap rig import`");
+    v("rig", rig, "rig file (HDF5) from `facecap rig demo` or `facecap rig import`, or a textured rig "
+                  "(appearance gather's output), drawn with its texture");
     v("out", out, "output image; the extension picks the format (.png, .jpg, .exr, .tif)");
     v("mode", mode, "what to draw: segmentation, shaded, uv or depth");
     v("size", size, "image width and height in pixels");
@@ -149,17 +151,22 @@ std::vector<Eigen::Vector3f> PreviewAlbedo(const rig::Rig& rig) {
 
 class Renderer {
  public:
-  Renderer(const rig::Rig& rig, int threads) : rig_(rig), evaluator_(rig) {
+  // texture: the rig file's own albedo texture (empty: none).
+  Renderer(const rig::Rig& rig, const ImageF& texture, int threads)
+      : rig_(rig), evaluator_(rig), texture_(texture) {
     raster_.num_threads = threads;
     shading_.num_threads = threads;
     shading_.albedo_source = render::AlbedoSource::kPerRegion;
     shading_.region_albedo = PreviewAlbedo(rig);
     shading_.background_color = {0.05f, 0.05f, 0.06f};
     lighting_.ambient = {0.25f, 0.25f, 0.25f};
-    // A rig with UVs and the 68 landmarks is shown textured: the procedural skin albedo of the
-    // wild clips (skin tone, blotches, pores, redder cheeks, lips, brows, lash lines).
-    if (rig.uvs.rows() > 0 && rig.uv_triangles.rows() == rig.triangles.rows() &&
-        rig.landmarks.size() == 68) {
+    // A textured rig is shown with its texture. Else a rig with UVs and the 68 landmarks is
+    // shown with the procedural skin albedo of the wild clips (skin tone, blotches, pores,
+    // redder cheeks, lips, brows, lash lines).
+    if (!texture_.empty()) {
+      shading_.albedo_source = render::AlbedoSource::kTexture;
+    } else if (rig.uvs.rows() > 0 && rig.uv_triangles.rows() == rig.triangles.rows() &&
+               rig.landmarks.size() == 68) {
       try {
         texture_ = synth::MakeSkinTexture(rig, synth::DrawPersonColors(1), 1,
                                           synth::SkinTextureOptions());
@@ -249,7 +256,7 @@ void RunRender(const StageFlags& flags, AppState* state) {
   const auto o = ResolveStageOptions<RenderStageOptions>(flags, &ctx, &resolved);
   if (!ctx.comm.IsMainRank()) return;
   const rig::Rig rig = io::ReadRigFile(o.rig);
-  Renderer renderer(rig, o.threads);
+  Renderer renderer(rig, io::ReadRigTexture(o.rig), o.threads);
   if (!o.sheet) {
     const Eigen::VectorXf w = ParseWeights(rig, o.weights);
     const Framing framing = FrameHead(rig, o.size, o.fov_deg, o.pitch_deg * kDegToRad,

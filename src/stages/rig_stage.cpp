@@ -9,6 +9,7 @@
 #include "rig/demo_head.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
+#include "stages/rig_texture.h"
 #include "util/errors.h"
 #include "util/log.h"
 
@@ -72,7 +73,8 @@ struct RigExportOptions {
   std::string gltf;
   template <class V>
   void Visit(V&& v) {
-    v("rig", rig, "rig file (HDF5)");
+    v("rig", rig, "rig file (HDF5); the texture of a textured rig (appearance gather's output) "
+                  "goes into the glTF");
     v("obj_dir", obj_dir, "write neutral.obj and one OBJ per shape into this folder");
     v("gltf", gltf, "write a glTF file with one morph target per shape");
   }
@@ -136,8 +138,10 @@ void RunRigExport(const StageFlags& flags, AppState* state) {
     FC_INFO("rig export: {} OBJ files in {}", rig.NumShapes() + 1, o.obj_dir);
   }
   if (!o.gltf.empty()) {
-    io::ExportRigToGltf(rig, o.gltf);
-    FC_INFO("rig export: glTF with {} morph targets -> {}", rig.NumShapes(), o.gltf);
+    const Image8 texture = ReadRigTextureSrgb(o.rig);
+    io::ExportRigToGltf(rig, o.gltf, nullptr, 30.f, texture.empty() ? nullptr : &texture);
+    FC_INFO("rig export: glTF with {} morph targets{} -> {}", rig.NumShapes(),
+            texture.empty() ? "" : " and the rig file's texture", o.gltf);
   }
 }
 
