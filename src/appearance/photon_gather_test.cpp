@@ -1,6 +1,7 @@
 #include "appearance/photon_gather.h"
 
 #include <cmath>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -247,6 +248,61 @@ TEST_F(PhotonGatherTest, ComparisonUndoesAChannelGainAndScoresAFlatTextureLow) {
   TextureComparison half = CompareTextures(captured, confidence, truth, mask);
   EXPECT_NEAR(half.coverage, 0.5, 0.01);
   EXPECT_GT(half.psnr_db, 60.);
+}
+
+// A texture of small blobs, shifted by (dx, dy) texels (bilinear between texels) and scaled.
+ImageF Blobs(int n, double dx, double dy, double scale) {
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> where(0., n);
+  std::vector<Eigen::Vector2d> centres(n * n / 16);
+  for (auto& c : centres) c = Eigen::Vector2d(where(random), where(random));
+  ImageF image(n, n, 3);
+  for (int y = 0; y < n; ++y) {
+    for (int x = 0; x < n; ++x) {
+      double v = 0.2;
+      for (const auto& c : centres) {
+        v += 0.5 * std::exp(-(Eigen::Vector2d(x - dx, y - dy) - c).squaredNorm() / 4.);
+      }
+      for (int k = 0; k < 3; ++k) image.at(x, y, k) = static_cast<float>(scale * v * (1. + 0.2 * k));
+    }
+  }
+  return image;
+}
+
+TEST(CornerAlignmentTest, MeasuresTheShiftOfTheDetailAndNothingOnAFlatTexture) {
+  const int n = 64;
+  const ImageF truth = Blobs(n, 0., 0., 1.);
+  const std::vector<Eigen::Vector2f> points = {{0.3f, 0.4f}, {0.5f, 0.5f}, {0.7f, 0.65f}};
+  const CornerAlignment same = MeasureCornerAlignment(truth, truth, points, 5, 6);
+  EXPECT_EQ(same.found, 3);
+  EXPECT_LT(same.mean_shift_texels, 0.1);  // the parabola through an asymmetric peak
+  for (double c : same.correlation) EXPECT_NEAR(c, 1., 1e-9);
+  // Shifted by (3, -2) and darkened: the shift, not the gain, is measured.
+  const CornerAlignment shifted = MeasureCornerAlignment(Blobs(n, 3., -2., 0.6), truth, points, 5, 6);
+  EXPECT_EQ(shifted.found, 3);
+  for (double d : shifted.shift_texels) EXPECT_NEAR(d, std::hypot(3., 2.), 0.2);
+  // A fraction of a texel is resolved.
+  const CornerAlignment half = MeasureCornerAlignment(Blobs(n, 1.5, 0., 1.), truth, points, 5, 6);
+  for (double d : half.shift_texels) EXPECT_NEAR(d, 1.5, 0.25);
+  // A flat capture has no detail to find: every corner counts as shifted by the search radius.
+  const ImageF flat(n, n, 3, 0.4f);
+  const CornerAlignment none = MeasureCornerAlignment(flat, truth, points, 5, 6);
+  EXPECT_EQ(none.found, 0);
+  EXPECT_DOUBLE_EQ(none.mean_shift_texels, 6.);
+  EXPECT_THROW(MeasureCornerAlignment(flat, Blobs(32, 0., 0., 1.), points, 5, 6), InvalidInputError);
+  EXPECT_THROW(MeasureCornerAlignment(flat, truth, points, 20, 20), InvalidInputError);
+}
+
+TEST_F(PhotonGatherTest, CornerLandmarksHaveTextureCoordinates) {
+  const std::vector<Eigen::Vector2f> uvs = LandmarkUVs(*rig_, CornerLandmarks());
+  ASSERT_EQ(uvs.size(), 6u);
+  for (const auto& uv : uvs) {
+    EXPECT_GE(uv.minCoeff(), 0.f);
+    EXPECT_LE(uv.maxCoeff(), 1.f);
+  }
+  // The two corners of the mouth are distinct texture points.
+  EXPECT_GT((uvs[4] - uvs[5]).norm(), 0.01f);
+  EXPECT_THROW(LandmarkUVs(*rig_, {68}), InvalidInputError);
 }
 
 }  // namespace

@@ -128,4 +128,128 @@ TextureComparison CompareTextures(const ImageF& captured, const ImageF& confiden
   return out;
 }
 
+std::vector<Eigen::Vector2f> LandmarkUVs(const rig::Rig& rig, const std::vector<int>& landmarks) {
+  if (rig.uvs.rows() == 0 || rig.uv_triangles.rows() != rig.triangles.rows() ||
+      rig.landmarks.size() != 68) {
+    throw InvalidInputError("LandmarkUVs: the rig needs texture coordinates and 68 landmarks");
+  }
+  std::vector<Eigen::Vector2f> uvs;
+  for (int l : landmarks) {
+    if (l < 0 || l >= 68) throw InvalidInputError("LandmarkUVs: landmark " + std::to_string(l));
+    const int vertex = rig.landmarks[l];
+    int uv = -1;
+    for (int f = 0; f < rig.triangles.rows() && uv < 0; ++f) {
+      for (int c = 0; c < 3; ++c) {
+        if (rig.triangles(f, c) == vertex) {
+          uv = rig.uv_triangles(f, c);
+          break;
+        }
+      }
+    }
+    if (uv < 0) {
+      throw InvalidInputError("LandmarkUVs: landmark " + std::to_string(l) + "'s vertex is in no triangle");
+    }
+    uvs.push_back(rig.uvs.row(uv).transpose());
+  }
+  return uvs;
+}
+
+const std::vector<int>& CornerLandmarks() {
+  static const std::vector<int> corners = {36, 39, 42, 45, 48, 54};
+  return corners;
+}
+
+namespace {
+
+// Luminance of an RGB texture.
+std::vector<double> Luminance(const ImageF& image) {
+  std::vector<double> out(static_cast<size_t>(image.width) * image.height);
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      out[static_cast<size_t>(y) * image.width + x] =
+          0.2126 * image.at(x, y, 0) + 0.7152 * image.at(x, y, 1) + 0.0722 * image.at(x, y, 2);
+    }
+  }
+  return out;
+}
+
+// Normalized cross-correlation of the (2 w + 1)^2 windows centred at a in `p` and at b in `q`
+// (images `n` wide); 0 when either window is flat.
+double Ncc(const std::vector<double>& p, const std::vector<double>& q, int n, int ax, int ay,
+           int bx, int by, int w) {
+  double sp = 0., sq = 0., spp = 0., sqq = 0., spq = 0.;
+  const double count = (2. * w + 1.) * (2. * w + 1.);
+  for (int dy = -w; dy <= w; ++dy) {
+    for (int dx = -w; dx <= w; ++dx) {
+      const double a = p[static_cast<size_t>(ay + dy) * n + ax + dx];
+      const double b = q[static_cast<size_t>(by + dy) * n + bx + dx];
+      sp += a;
+      sq += b;
+      spp += a * a;
+      sqq += b * b;
+      spq += a * b;
+    }
+  }
+  const double vp = spp - sp * sp / count, vq = sqq - sq * sq / count;
+  if (vp <= 1e-12 * count || vq <= 1e-12 * count) return 0.;
+  return (spq - sp * sq / count) / std::sqrt(vp * vq);
+}
+
+// The offset of a parabola's peak through (-1, a), (0, b), (1, c) from 0, in [-0.5, 0.5].
+double ParabolaPeak(double a, double b, double c) {
+  const double d = a - 2. * b + c;
+  return d < 0. ? std::clamp(0.5 * (a - c) / d, -0.5, 0.5) : 0.;
+}
+
+}  // namespace
+
+CornerAlignment MeasureCornerAlignment(const ImageF& captured, const ImageF& truth,
+                                       const std::vector<Eigen::Vector2f>& uvs, int window,
+                                       int search, double min_correlation) {
+  const int n = truth.width;
+  if (captured.width != n || captured.height != n || truth.height != n || captured.channels != 3 ||
+      truth.channels != 3) {
+    throw InvalidInputError("MeasureCornerAlignment: the textures must be square, RGB and of one size");
+  }
+  if (window < 1 || search < 1 || 2 * (window + search) + 1 > n) {
+    throw InvalidInputError("MeasureCornerAlignment: window and search must be at least 1 and fit "
+                            "the texture");
+  }
+  const std::vector<double> p = Luminance(truth), q = Luminance(captured);
+  const int reach = window + search;
+  CornerAlignment out;
+  for (const Eigen::Vector2f& uv : uvs) {
+    // The texel whose centre is nearest the point, kept far enough from the edges.
+    const int cx = std::clamp(static_cast<int>(std::floor(uv.x() * n)), reach, n - 1 - reach);
+    const int cy = std::clamp(static_cast<int>(std::floor((1.f - uv.y()) * n)), reach, n - 1 - reach);
+    const int side = 2 * search + 1;
+    std::vector<double> score(static_cast<size_t>(side) * side);
+    int best = 0;
+    for (int sy = -search; sy <= search; ++sy) {
+      for (int sx = -search; sx <= search; ++sx) {
+        const int i = (sy + search) * side + sx + search;
+        score[i] = Ncc(p, q, n, cx, cy, cx + sx, cy + sy, window);
+        if (score[i] > score[best]) best = i;
+      }
+    }
+    const int bx = best % side, by = best / side;
+    // A best shift on the border of the search is no peak: the detail lies farther, or nowhere.
+    const bool on_border = bx == 0 || by == 0 || bx == side - 1 || by == side - 1;
+    double shift = search;
+    if (score[best] >= min_correlation && !on_border) {
+      const auto at = [&](int x, int y) { return score[static_cast<size_t>(y) * side + x]; };
+      const double fx = ParabolaPeak(at(bx - 1, by), at(bx, by), at(bx + 1, by));
+      const double fy = ParabolaPeak(at(bx, by - 1), at(bx, by), at(bx, by + 1));
+      shift = std::min<double>(search, std::hypot(bx - search + fx, by - search + fy));
+      ++out.found;
+    }
+    out.shift_texels.push_back(shift);
+    out.correlation.push_back(score[best]);
+  }
+  double sum = 0.;
+  for (double s : out.shift_texels) sum += s;
+  out.mean_shift_texels = out.shift_texels.empty() ? 0. : sum / out.shift_texels.size();
+  return out;
+}
+
 }  // namespace facecap::appearance

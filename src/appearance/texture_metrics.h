@@ -37,6 +37,34 @@ struct TextureComparison {
 TextureComparison CompareTextures(const ImageF& captured, const ImageF& confidence,
                                   const ImageF& truth, const std::vector<uint8_t>& mask);
 
+// The texture position of each of the rig's landmark vertices `landmarks` (indices into its 68
+// landmarks), as (u, v): the UV of the vertex's first triangle corner. InvalidInputError when
+// the rig has no UVs or 68 landmarks, or an index is outside 0..67.
+std::vector<Eigen::Vector2f> LandmarkUVs(const rig::Rig& rig, const std::vector<int>& landmarks);
+
+// The eye and mouth corners of the 68 iBUG landmarks: 36, 39, 42, 45, 48, 54.
+const std::vector<int>& CornerLandmarks();
+
+struct CornerAlignment {
+  std::vector<double> shift_texels;  // per corner: how far the capture's detail is displaced
+  std::vector<double> correlation;   // per corner: the normalized cross-correlation at the shift
+  double mean_shift_texels = 0.;     // mean of shift_texels
+  int found = 0;                     // corners whose correlation reached min_correlation
+};
+
+// Where the detail around each point of `uvs` lies in `captured` against `truth` (both
+// [N, N, 3] textures of the same size): the window of (2 window + 1)^2 texels of the truth's
+// luminance around the point is matched against the capture's at every whole-texel shift up to
+// `search` texels (normalized cross-correlation), refined to a fraction of a texel by a
+// parabola through the best shift and its neighbours. A corner whose best correlation stays
+// below `min_correlation` (a capture without that detail, or a flat one), or whose best shift
+// lies on the border of the search (no peak within it), counts as not found and shifted by
+// `search`, the most this measures. InvalidInputError for textures of different sizes, window
+// or search below 1, or a window that does not fit the texture.
+CornerAlignment MeasureCornerAlignment(const ImageF& captured, const ImageF& truth,
+                                       const std::vector<Eigen::Vector2f>& uvs, int window,
+                                       int search, double min_correlation = 0.3);
+
 }  // namespace facecap::appearance
 
 #endif  // FACECAP_APPEARANCE_TEXTURE_METRICS_H_

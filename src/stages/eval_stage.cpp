@@ -645,6 +645,51 @@ struct EvalAppearanceOptions {
   }
 };
 
+// One capture scored against the truth: the face-region comparison and the eye and mouth
+// corners' alignment.
+struct AppearanceScore {
+  int size = 0;
+  appearance::TextureComparison comparison;
+  appearance::CornerAlignment corners;
+};
+
+// A capture against the truth resampled to its resolution (bilinear, as a renderer samples).
+// Corner windows of N / 16 texels each side (an eye's width), searched N / 32 texels far (16
+// and 8 at 256; at least 1).
+AppearanceScore ScoreCapture(const std::string& path, const rig::Rig& truth_rig, const ImageF& truth) {
+  const ImageF captured = io::ReadColorTexture(path, io::kTextureAlbedoPath);
+  const int N = captured.width;
+  ImageF confidence(N, N, 1);
+  confidence.data = io::H5File::OpenRead(path).Read<float>(io::kTextureConfidencePath, {N, N});
+  ImageF truth_resampled(N, N, 3);
+  for (int y = 0; y < N; ++y) {
+    for (int x = 0; x < N; ++x) {
+      const Eigen::Vector3f c = render::SampleBilinear(truth, (x + 0.5f) / N, 1.f - (y + 0.5f) / N);
+      for (int k = 0; k < 3; ++k) truth_resampled.at(x, y, k) = c[k];
+    }
+  }
+  const render::TexelMap texels = render::BakeTexelMap(truth_rig, N);
+  AppearanceScore score;
+  score.size = N;
+  score.comparison = appearance::CompareTextures(captured, confidence, truth_resampled,
+                                                 appearance::FaceRegionMask(truth_rig, texels));
+  const int window = std::max(1, N / 16), search = std::max(1, N / 32);
+  if (2 * (window + search) + 1 > N) {
+    throw FileIOError(path + ": a texture of " + std::to_string(N) + " texels is too small to "
+                      "measure the corners' alignment");
+  }
+  score.corners = appearance::MeasureCornerAlignment(
+      captured, truth_resampled,
+      appearance::LandmarkUVs(truth_rig, appearance::CornerLandmarks()), window, search);
+  return score;
+}
+
+std::string JsonList(const std::vector<double>& values) {
+  std::string out = "[";
+  for (size_t i = 0; i < values.size(); ++i) out += (i ? ", " : "") + JsonNumber(values[i]);
+  return out + "]";
+}
+
 void RunEvalAppearance(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -652,49 +697,48 @@ void RunEvalAppearance(const StageFlags& flags, AppState* state) {
   if (!ctx.comm.IsMainRank()) return;
   const rig::Rig truth_rig = io::ReadRigFile(o.truth);
   const ImageF truth = io::ReadColorTexture(o.truth, io::kTrueAlbedoPath);
-  // A capture against the truth resampled to its resolution (bilinear, as a renderer samples).
-  auto score = [&](const std::string& path) {
-    const ImageF captured = io::ReadColorTexture(path, io::kTextureAlbedoPath);
-    const int N = captured.width;
-    ImageF confidence(N, N, 1);
-    confidence.data = io::H5File::OpenRead(path).Read<float>(io::kTextureConfidencePath, {N, N});
-    ImageF truth_resampled(N, N, 3);
-    for (int y = 0; y < N; ++y) {
-      for (int x = 0; x < N; ++x) {
-        const Eigen::Vector3f c = render::SampleBilinear(truth, (x + 0.5f) / N, 1.f - (y + 0.5f) / N);
-        for (int k = 0; k < 3; ++k) truth_resampled.at(x, y, k) = c[k];
-      }
-    }
-    const render::TexelMap texels = render::BakeTexelMap(truth_rig, N);
-    return std::make_pair(N, appearance::CompareTextures(captured, confidence, truth_resampled,
-                                                         appearance::FaceRegionMask(truth_rig, texels)));
-  };
-  const auto [N, m] = score(o.texture);
+  const AppearanceScore score = ScoreCapture(o.texture, truth_rig, truth);
+  const appearance::TextureComparison& m = score.comparison;
   std::string naive_json;
-  double naive_psnr = 0.;
+  AppearanceScore naive;
   if (!o.naive.empty()) {
-    const auto naive = score(o.naive).second;
-    naive_psnr = naive.psnr_db;
-    naive_json = ", \"psnr_naive_db\": " + JsonNumber(naive.psnr_db) +
-                 ", \"coverage_naive\": " + JsonNumber(naive.coverage);
+    naive = ScoreCapture(o.naive, truth_rig, truth);
+    naive_json = ", \"psnr_naive_db\": " + JsonNumber(naive.comparison.psnr_db) +
+                 ", \"coverage_naive\": " + JsonNumber(naive.comparison.coverage) +
+                 ", \"corner_misalignment_naive_texels\": " +
+                 JsonNumber(naive.corners.mean_shift_texels) +
+                 ", \"corners_found_naive\": " + std::to_string(naive.corners.found);
   }
   std::ostringstream js;
   js << "{\"psnr_face_db\": " << JsonNumber(m.psnr_db)
      << ", \"psnr_flat_db\": " << JsonNumber(m.psnr_flat_db)
+     << ", \"corner_misalignment_texels\": " << JsonNumber(score.corners.mean_shift_texels)
+     << ", \"corners_found\": " << score.corners.found
+     << ", \"corner_shift_texels\": " << JsonList(score.corners.shift_texels)
+     << ", \"corner_correlation\": " << JsonList(score.corners.correlation)
      << naive_json << ", \"coverage\": " << JsonNumber(m.coverage)
      << ", \"face_texels\": " << m.face_texels
      << ", \"gain\": [" << JsonNumber(m.gain[0]) << ", " << JsonNumber(m.gain[1]) << ", "
-     << JsonNumber(m.gain[2]) << "], \"texture_size\": " << N
+     << JsonNumber(m.gain[2]) << "], \"texture_size\": " << score.size
      << ", \"region\": \"face (brows to chin, ear to ear; no eyes, hair or mouth inside), "
-        "linear RGB after one gain per channel, over covered texels\"}";
+        "linear RGB after one gain per channel, over covered texels\""
+     << ", \"corners\": \"iBUG 36, 39, 42, 45, 48, 54 (eye and mouth corners); the shift of the "
+        "capture's detail around each against the truth's, in texels; a corner without "
+        "matching detail counts as " << std::max(1, score.size / 32) << "\"}";
   if (o.json) {
     std::cout << js.str() << std::endl;
   } else {
-    std::printf("face-region PSNR against the true albedo (%lld texels, %.1f%% covered):\n"
-                "  captured texture  %.2f dB\n",
-                static_cast<long long>(m.face_texels), 100. * m.coverage, m.psnr_db);
-    if (!o.naive.empty()) std::printf("  naive capture     %.2f dB\n", naive_psnr);
-    std::printf("  flat colour       %.2f dB\n", m.psnr_flat_db);
+    std::printf("against the true albedo: face-region PSNR (%lld texels, %.1f%% covered), and the "
+                "eye and mouth corners' misalignment\n"
+                "  captured texture  %.2f dB  %.2f texels (%d of 6 corners found)\n",
+                static_cast<long long>(m.face_texels), 100. * m.coverage, m.psnr_db,
+                score.corners.mean_shift_texels, score.corners.found);
+    if (!o.naive.empty()) {
+      std::printf("  naive capture     %.2f dB  %.2f texels (%d of 6 corners found)\n",
+                  naive.comparison.psnr_db, naive.corners.mean_shift_texels, naive.corners.found);
+    }
+    std::printf("  flat colour       %.2f dB  %.2f texels (no detail)\n", m.psnr_flat_db,
+                static_cast<double>(std::max(1, score.size / 32)));
   }
   if (!o.out.empty()) {
     std::ofstream file(o.out);
