@@ -7,6 +7,7 @@
 #include "io/rig_io.h"
 #include "rig/arkit.h"
 #include "rig/demo_head.h"
+#include "rig/perturb.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
 #include "stages/rig_texture.h"
@@ -111,6 +112,54 @@ void RunRigDemo(const StageFlags& flags, AppState* state) {
           rig.identity_modes.size(), o.out);
 }
 
+// [rig.perturb]: the rig with a known geometry error, for robustness measurements.
+struct RigPerturbOptions {
+  std::string rig = "rig.h5";
+  std::string out = "rig_perturbed.h5";
+  double rms_mm = 3.;           // RMS displacement of the neutral's vertices (mm)
+  double wavelength_mm = 20.;   // spatial scale of the displacement field (mm)
+  int bumps = 48;               // random bumps the field is made of
+  int seed = 1;                 // the field is a function of the seed alone
+
+  template <class V>
+  void Visit(V&& v) {
+    v("rig", rig, "rig file (HDF5)");
+    v("out", out, "output rig file (HDF5): the rig with its neutral displaced");
+    v("rms_mm", rms_mm, "RMS displacement of the neutral's vertices (mm)");
+    v("wavelength_mm", wavelength_mm, "spatial scale of the smooth displacement field: the sigma "
+                                      "of its Gaussian bumps (mm)");
+    v("bumps", bumps, "number of random bumps, centred on random vertices");
+    v("seed", seed, "random seed of the field");
+  }
+  bool Check(std::string* why) const {
+    if (!(rms_mm >= 0. && rms_mm <= 50.)) { *why = "rms_mm must be in [0, 50]"; return false; }
+    if (!(wavelength_mm >= 1. && wavelength_mm <= 500.)) {
+      *why = "wavelength_mm must be in [1, 500]";
+      return false;
+    }
+    if (bumps < 1 || bumps > 10000) { *why = "bumps must be in [1, 10000]"; return false; }
+    if (seed < 0) { *why = "seed must be >= 0"; return false; }
+    return true;
+  }
+};
+
+void RunRigPerturb(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<RigPerturbOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  const rig::Rig rig = io::ReadRigFile(o.rig);
+  rig::PerturbOptions perturb;
+  perturb.rms_cm = o.rms_mm / 10.;
+  perturb.wavelength_cm = o.wavelength_mm / 10.;
+  perturb.bumps = o.bumps;
+  perturb.seed = static_cast<uint64_t>(o.seed);
+  const rig::Rig out = rig::PerturbNeutral(rig, perturb);
+  WriteRigFile(out, o.out, MakeProvenance(ctx, "rig perturb", resolved));
+  FC_INFO("rig perturb: neutral displaced by {:.2f} mm RMS (smooth field, {:.0f} mm scale) -> {}",
+          o.rms_mm, o.wavelength_mm, o.out);
+}
+
 void RunRigImport(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -164,6 +213,11 @@ void RegisterRig(CLI::App* app, AppState* state) {
       "targets",
       PathKeys{{"obj_dir", "gltf"}, {{"out", OutputKind::kHdf5}}},
       RunRigImport);
+  AddStage<RigPerturbOptions>(
+      rig, state, "perturb", "rig.perturb", "rig perturb",
+      "The rig with its neutral displaced by a smooth random field of a given RMS (a known "
+      "geometry error, to measure how a stage copes with imperfect geometry); shapes follow",
+      PathKeys{{"rig"}, {{"out", OutputKind::kHdf5}}}, RunRigPerturb);
   AddStage<RigExportOptions>(rig, state, "export", "rig.export", "rig export",
                              "Export a rig to OBJ files and/or glTF",
       PathKeys{{"rig"}, {{"obj_dir", OutputKind::kFolder}, {"gltf", OutputKind::kGltf}}},
