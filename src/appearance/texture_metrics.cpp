@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
+#include "render/shading.h"
 #include "util/errors.h"
 
 namespace facecap::appearance {
@@ -251,5 +253,63 @@ CornerAlignment MeasureCornerAlignment(const ImageF& captured, const ImageF& tru
   out.mean_shift_texels = out.shift_texels.empty() ? 0. : sum / out.shift_texels.size();
   return out;
 }
+
+RerenderScore::RerenderScore(std::vector<const ImageF*> textures)
+    : textures_(std::move(textures)), error_(textures_.size(), 0.) {
+  for (const ImageF* t : textures_) {
+    if (t == nullptr || t->empty() || t->channels != 3) {
+      throw InvalidInputError("RerenderScore: every texture must be a non-empty RGB image");
+    }
+  }
+}
+
+void RerenderScore::AddFrame(const ImageF& image, const ImageF& uv_image, const ImageF& mask) {
+  if (image.channels < 3 || uv_image.channels < 3 || mask.channels != 1 ||
+      uv_image.width != image.width || uv_image.height != image.height ||
+      mask.width != image.width || mask.height != image.height) {
+    throw InvalidInputError("RerenderScore: the image, U(I) and mask differ in size or channels");
+  }
+  // Per channel: sums of f^2 and f over the frame's pixels, and per texture of r f and r^2.
+  Eigen::Array3d ff = Eigen::Array3d::Zero(), f1 = Eigen::Array3d::Zero();
+  std::vector<Eigen::Array3d> rf(textures_.size(), Eigen::Array3d::Zero()), rr = rf;
+  int64_t count = 0;
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      if (uv_image.at(x, y, 2) <= 0.5f || mask.at(x, y) <= 0.5f) continue;
+      const Eigen::Array3d f(image.at(x, y, 0), image.at(x, y, 1), image.at(x, y, 2));
+      ff += f * f;
+      f1 += f;
+      ++count;
+      for (size_t t = 0; t < textures_.size(); ++t) {
+        const Eigen::Array3d r =
+            render::SampleBilinear(*textures_[t], uv_image.at(x, y, 0), uv_image.at(x, y, 1))
+                .cast<double>()
+                .array();
+        rf[t] += r * f;
+        rr[t] += r * r;
+      }
+    }
+  }
+  if (count == 0) return;
+  // The least-squares gain g = sum(r f) / sum(r r) leaves sum(f f) - sum(r f)^2 / sum(r r).
+  for (size_t t = 0; t < textures_.size(); ++t) {
+    for (int c = 0; c < 3; ++c) {
+      error_[t] += ff[c] - (rr[t][c] > 0. ? rf[t][c] * rf[t][c] / rr[t][c] : 0.);
+    }
+  }
+  for (int c = 0; c < 3; ++c) flat_error_ += ff[c] - f1[c] * f1[c] / static_cast<double>(count);
+  ++frames_;
+  pixels_ += count;
+}
+
+namespace {
+double PsnrOf(double squared_error, int64_t pixels) {
+  const double mse = std::max(squared_error, 0.) / std::max<int64_t>(3 * pixels, 1);
+  return 10. * std::log10(1. / std::max(mse, 1e-12));
+}
+}  // namespace
+
+double RerenderScore::PsnrDb(size_t t) const { return PsnrOf(error_.at(t), pixels_); }
+double RerenderScore::FlatPsnrDb() const { return PsnrOf(flat_error_, pixels_); }
 
 }  // namespace facecap::appearance

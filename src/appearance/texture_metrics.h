@@ -65,6 +65,34 @@ CornerAlignment MeasureCornerAlignment(const ImageF& captured, const ImageF& tru
                                        const std::vector<Eigen::Vector2f>& uvs, int window,
                                        int search, double min_correlation = 0.3);
 
+// How well textures explain footage: the face pixels of tracked frames against each texture
+// sampled at the pixels' U(I) (render::SampleBilinear), after one gain per colour channel per
+// frame (least squares: each frame's lighting scales each channel), summed over frames. A flat
+// texture is scored beside them: per frame and channel, the best constant.
+class RerenderScore {
+ public:
+  // The textures to score: 3-channel linear RGB, any sizes; they must outlive this object.
+  explicit RerenderScore(std::vector<const ImageF*> textures);
+
+  // One frame: `image` (linear RGB) and its `uv_image` (U(I): u, v, coverage) of one size; the
+  // pixels scored are those with coverage above 0.5 and `mask` (1 channel) above 0.5.
+  // InvalidInputError when the sizes differ.
+  void AddFrame(const ImageF& image, const ImageF& uv_image, const ImageF& mask);
+
+  int frames() const { return frames_; }
+  int64_t pixels() const { return pixels_; }
+  // PSNR (dB, linear RGB in [0, 1]) of texture t over every pixel added; of the flat texture.
+  double PsnrDb(size_t t) const;
+  double FlatPsnrDb() const;
+
+ private:
+  std::vector<const ImageF*> textures_;
+  std::vector<double> error_;  // per texture: squared error after the per-frame gains
+  double flat_error_ = 0.;
+  int frames_ = 0;
+  int64_t pixels_ = 0;
+};
+
 }  // namespace facecap::appearance
 
 #endif  // FACECAP_APPEARANCE_TEXTURE_METRICS_H_

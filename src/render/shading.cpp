@@ -82,6 +82,18 @@ Eigen::Vector3f SampleBilinear(const ImageF& texture, float u, float v) {
                               (1.f - v) * texture.height - 0.5f);
 }
 
+ImageF ResampleBilinear(const ImageF& image, int width, int height) {
+  if (image.width == width && image.height == height && image.channels == 3) return image;
+  ImageF out(width, height, 3);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const Eigen::Vector3f c = SampleBilinear(image, (x + 0.5f) / width, 1.f - (y + 0.5f) / height);
+      for (int k = 0; k < 3; ++k) out.at(x, y, k) = c[k];
+    }
+  }
+  return out;
+}
+
 Eigen::Vector3f SphericalHarmonicsIrradiance(const Eigen::Matrix<float, 9, 3>& coefficients,
                                              const Eigen::Vector3f& normal) {
   const float x = normal.x(), y = normal.y(), z = normal.z();

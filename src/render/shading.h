@@ -86,6 +86,10 @@ void VertexNormals(const rig::Vertices& vertices, const rig::Triangles& triangle
 // Returns the first three channels.
 Eigen::Vector3f SampleBilinear(const ImageF& texture, float u, float v);
 
+// The first three channels of `image` resampled to width x height by SampleBilinear (texel
+// centres onto texel centres, clamped at the edges); a copy when the size is already that.
+ImageF ResampleBilinear(const ImageF& image, int width, int height);
+
 // Irradiance E(n) / pi of an order-2 spherical-harmonics environment at unit normal n
 // (see Lighting::spherical_harmonics).
 Eigen::Vector3f SphericalHarmonicsIrradiance(const Eigen::Matrix<float, 9, 3>& coefficients,

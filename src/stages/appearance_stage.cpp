@@ -487,6 +487,7 @@ struct AppearanceGatherOptions {
   std::string out = "texture.h5";      // output file
   int texture_size = 512;              // texture width and height (texels)
   int edge_margin_px = 2;              // pixels this close to the silhouette are not splatted
+  int holdout_every = 0;               // views i % n == n - 1 are not splatted (0: none)
   appearance::GatherOptions gather;
   std::string exr = "";                // linear EXR of the texture ("": OUT with .exr; none)
   std::string png = "";                // sRGB PNG of the texture ("": OUT with .png; none)
@@ -504,6 +505,9 @@ struct AppearanceGatherOptions {
     v("edge_margin_px", edge_margin_px,
       "pixels within this distance of the head's silhouette are not splatted (grazing angles, "
       "background bleeding into a translation's face)");
+    v("holdout_every", holdout_every,
+      "views i % n == n - 1 are not splatted, kept for evaluation (eval rerender), as deepfake "
+      "train's b_holdout_every keeps them from B (0: every view is splatted)");
     v("neighbours", gather.neighbours, "particles each texel gathers (k)");
     v("max_radius_texels", gather.max_radius_texels,
       "a texel whose k-th nearest particle is farther than this stays empty (texels)");
@@ -521,6 +525,10 @@ struct AppearanceGatherOptions {
       *why = "edge_margin_px must be in [0, 32]";
       return false;
     }
+    if (holdout_every < 0 || holdout_every == 1) {
+      *why = "holdout_every must be 0 (none) or at least 2";
+      return false;
+    }
     return gather.Check(why);
   }
   std::string ExrPath() const { return exr.empty() ? WithSuffix(out, ".exr") : exr; }
@@ -530,19 +538,6 @@ struct AppearanceGatherOptions {
     if (png != "none") outputs->push_back({"png", PngPath(), OutputKind::kImage});
   }
 };
-
-// Bilinear resampling of an RGB image to size x size (clamped at the edges).
-ImageF ResampleTo(const ImageF& image, int size) {
-  if (image.width == size && image.height == size) return image;
-  ImageF out(size, size, 3);
-  for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) {
-      const Eigen::Vector3f c = render::SampleBilinear(image, (x + 0.5f) / size, 1.f - (y + 0.5f) / size);
-      for (int k = 0; k < 3; ++k) out.at(x, y, k) = c[k];
-    }
-  }
-  return out;
-}
 
 // The particles of every view: its image's pixels at their U(I) positions.
 std::vector<appearance::Particle> ReadParticles(const AppearanceGatherOptions& o,
@@ -566,12 +561,13 @@ std::vector<appearance::Particle> ReadParticles(const AppearanceGatherOptions& o
   Image<int32_t> triangles(size, size, 1);
   std::vector<appearance::Particle> particles;
   for (int64_t v = 0; v < count; ++v) {
+    if (o.holdout_every > 0 && v % o.holdout_every == o.holdout_every - 1) continue;
     images.ReadFrames<uint8_t>(dataset, v, 1, image.data.data());
     views.ReadFrames<float>("/frames/uv", v, 1, uv.data.data());
     views.ReadFrames<int32_t>("/frames/triangle", v, 1, triangles.data.data());
     render::Image8ToLinear(image, true, &linear);
     appearance::SilhouetteInterior(uv, o.edge_margin_px, &interior);
-    appearance::AppendImageParticles(ResampleTo(linear, size), uv, triangles, charts, &interior,
+    appearance::AppendImageParticles(render::ResampleBilinear(linear, size, size), uv, triangles, charts, &interior,
                                      &particles);
   }
   return particles;

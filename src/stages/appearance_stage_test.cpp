@@ -185,6 +185,21 @@ TEST_F(Appearance, TrackedFramesBecomeViewsWhoseUVImageCoversTheFace) {
   ASSERT_EQ(g.code, 0) << g.output;
   EXPECT_GT(JsonValue(RunFacecap("eval appearance --truth " + Clip() + " --texture " + texture).output,
                       "coverage"), 0.5);
+  // Frame 1 held out of the gathering, then re-rendered with the texture of frame 0: the
+  // person's own colours explain it better than the generic texture does.
+  const std::string held = dir_->File("frames_texture_held.h5");
+  auto h = RunFacecap("appearance gather --views " + views + " --texture-size 64 --holdout-every 2 --out " + held);
+  ASSERT_EQ(h.code, 0) << h.output;
+  const auto particles = [](const std::string& path) {
+    return io::H5File::OpenRead(path).GetIntAttribute("/texture", "particles");
+  };
+  EXPECT_LT(particles(held), particles(texture));
+  EXPECT_GT(particles(held), 0);
+  auto e = RunFacecap("eval rerender --views " + views + " --texture " + held + " --holdout-every 2");
+  ASSERT_EQ(e.code, 0) << e.output;
+  EXPECT_EQ(JsonValue(e.output, "frames"), 1.) << e.output;
+  EXPECT_GT(JsonValue(e.output, "psnr_captured_db"), JsonValue(e.output, "psnr_generic_db") + 3.)
+      << e.output;
 }
 
 TEST_F(Appearance, BadInputsNameTheFile) {

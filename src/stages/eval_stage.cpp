@@ -13,6 +13,7 @@
 #include <map>
 #include <sstream>
 
+#include "appearance/photon_gather.h"
 #include "appearance/texture_metrics.h"
 #include "io/hdf5.h"
 #include "io/rig_io.h"
@@ -27,6 +28,7 @@
 #include "stages/ingested_frames.h"
 #include "stages/tracked_rig.h"
 #include "stages/registry.h"
+#include "stages/rig_texture.h"
 #include "util/errors.h"
 #include "util/log.h"
 
@@ -661,13 +663,7 @@ AppearanceScore ScoreCapture(const std::string& path, const rig::Rig& truth_rig,
   const int N = captured.width;
   ImageF confidence(N, N, 1);
   confidence.data = io::H5File::OpenRead(path).Read<float>(io::kTextureConfidencePath, {N, N});
-  ImageF truth_resampled(N, N, 3);
-  for (int y = 0; y < N; ++y) {
-    for (int x = 0; x < N; ++x) {
-      const Eigen::Vector3f c = render::SampleBilinear(truth, (x + 0.5f) / N, 1.f - (y + 0.5f) / N);
-      for (int k = 0; k < 3; ++k) truth_resampled.at(x, y, k) = c[k];
-    }
-  }
+  const ImageF truth_resampled = render::ResampleBilinear(truth, N, N);
   const render::TexelMap texels = render::BakeTexelMap(truth_rig, N);
   AppearanceScore score;
   score.size = N;
@@ -747,6 +743,114 @@ void RunEvalAppearance(const StageFlags& flags, AppState* state) {
   }
 }
 
+// [eval.rerender]
+struct EvalRerenderOptions {
+  std::string views = "frame_views.h5";  // appearance frames output: the tracked footage as views
+  std::string texture = "person_textured.h5";  // the captured texture (appearance gather)
+  std::string naive = "";                // the naive capture, scored beside it ("": none)
+  int holdout_every = 5;                 // frames i % n == n - 1 are scored (0: every frame)
+  int edge_margin_px = 2;                // pixels this close to the silhouette are not scored
+  bool json = true;                      // print one JSON object (else a table)
+  std::string out = "";                  // also write the JSON to this file
+
+  template <class V>
+  void Visit(V&& v) {
+    v("views", views, "appearance frames output: each frame's crop with the tracked rig's U(I)");
+    v("texture", texture, "captured texture (appearance gather output)");
+    v("naive", naive, "the naive capture (gathered from the same views' frames without the "
+                      "held-out ones), scored beside it (\"\": none)");
+    v("holdout_every", holdout_every,
+      "score frames i % n == n - 1, those deepfake train's b_holdout_every kept out of training "
+      "(0: every frame)");
+    v("edge_margin_px", edge_margin_px, "pixels within this distance of the head's silhouette "
+                                        "are not scored");
+    v("json", json, "print one JSON object (false: a readable table)");
+    v("out", out, "also write the JSON object to this file (empty: none)");
+  }
+  bool Check(std::string* why) const {
+    if (views.empty() || texture.empty()) { *why = "views and texture are required"; return false; }
+    if (holdout_every < 0 || holdout_every == 1) {
+      *why = "holdout_every must be 0 (every frame) or at least 2";
+      return false;
+    }
+    if (edge_margin_px < 0 || edge_margin_px > 32) {
+      *why = "edge_margin_px must be in [0, 32]";
+      return false;
+    }
+    return true;
+  }
+};
+
+// Per pixel of U(I): 1 where its texture point lies in the face region and the pixel is at
+// least `margin` pixels inside the silhouette.
+ImageF FacePixels(const ImageF& uv, const std::vector<uint8_t>& face, int texels, int margin) {
+  ImageF mask;
+  appearance::SilhouetteInterior(uv, margin, &mask);
+  for (int y = 0; y < uv.height; ++y) {
+    for (int x = 0; x < uv.width; ++x) {
+      const int tx = std::clamp(static_cast<int>(uv.at(x, y, 0) * texels), 0, texels - 1);
+      const int ty = std::clamp(static_cast<int>((1.f - uv.at(x, y, 1)) * texels), 0, texels - 1);
+      if (!face[static_cast<size_t>(ty) * texels + tx]) mask.at(x, y) = 0.f;
+    }
+  }
+  return mask;
+}
+
+void RunEvalRerender(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<EvalRerenderOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  const rig::Rig rig = io::ReadRigFile(o.views);
+  const ImageF captured = io::ReadColorTexture(o.texture, io::kTextureAlbedoPath);
+  const ImageF naive = o.naive.empty() ? ImageF() : io::ReadColorTexture(o.naive, io::kTextureAlbedoPath);
+  const ImageF generic = GenericSkinTexture(rig);
+  std::vector<const ImageF*> textures = {&captured, &generic};
+  if (!naive.empty()) textures.push_back(&naive);
+  appearance::RerenderScore score(textures);
+  constexpr int kMaskTexels = 256;
+  const std::vector<uint8_t> face =
+      appearance::FaceRegionMask(rig, render::BakeTexelMap(rig, kMaskTexels));
+  io::H5File views = io::H5File::OpenRead(o.views);
+  const io::Shape uv_shape = views.CheckShape("/frames/uv", {-1, -1, -1, 3});
+  const int size = static_cast<int>(uv_shape[1]);
+  const io::Shape image_shape = views.CheckShape("/frames/image", {uv_shape[0], -1, -1, 3});
+  Image8 image(static_cast<int>(image_shape[2]), static_cast<int>(image_shape[1]), 3);
+  ImageF uv(size, size, 3), linear;
+  for (int64_t f = 0; f < uv_shape[0]; ++f) {
+    if (o.holdout_every > 0 && f % o.holdout_every != o.holdout_every - 1) continue;
+    views.ReadFrames<uint8_t>("/frames/image", f, 1, image.data.data());
+    views.ReadFrames<float>("/frames/uv", f, 1, uv.data.data());
+    render::Image8ToLinear(image, true, &linear);
+    score.AddFrame(render::ResampleBilinear(linear, size, size), uv,
+                   FacePixels(uv, face, kMaskTexels, o.edge_margin_px));
+  }
+  if (score.pixels() == 0) throw FileIOError(o.views + ": no face pixel in the frames scored");
+  std::ostringstream js;
+  js << "{\"psnr_captured_db\": " << JsonNumber(score.PsnrDb(0))
+     << ", \"psnr_generic_db\": " << JsonNumber(score.PsnrDb(1));
+  if (!naive.empty()) js << ", \"psnr_naive_db\": " << JsonNumber(score.PsnrDb(2));
+  js << ", \"psnr_flat_db\": " << JsonNumber(score.FlatPsnrDb()) << ", \"frames\": "
+     << score.frames() << ", \"pixels\": " << score.pixels()
+     << ", \"scored\": \"face-region pixels of the frames, linear RGB, each frame's render "
+        "after one gain per colour channel\"}";
+  if (o.json) {
+    std::cout << js.str() << std::endl;
+  } else {
+    std::printf("tracked frames re-rendered with each texture against the frames (%d frames, "
+                "%lld face pixels):\n  captured texture  %.2f dB\n",
+                score.frames(), static_cast<long long>(score.pixels()), score.PsnrDb(0));
+    if (!naive.empty()) std::printf("  naive capture     %.2f dB\n", score.PsnrDb(2));
+    std::printf("  generic texture   %.2f dB\n  flat colour       %.2f dB\n", score.PsnrDb(1),
+                score.FlatPsnrDb());
+  }
+  if (!o.out.empty()) {
+    std::ofstream file(o.out);
+    if (!file) throw OutputError("eval rerender: cannot write " + o.out);
+    file << js.str() << "\n";
+  }
+}
+
 }  // namespace
 
 void RegisterEval(CLI::App* app, AppState* state) {
@@ -788,6 +892,14 @@ void RegisterEval(CLI::App* app, AppState* state) {
       "object",
       PathKeys{{"truth", "texture", "naive"}, {{"out", OutputKind::kText}}},
       RunEvalAppearance);
+  AddStage<EvalRerenderOptions>(
+      eval, state, "rerender", "eval.rerender", "eval rerender",
+      "Tracked footage re-rendered with a captured texture against the footage itself (no "
+      "truth needed, for real video): PSNR over the face pixels of held-out frames after one "
+      "gain per colour channel per frame, beside the naive capture, the generic texture and a "
+      "flat colour; one JSON object",
+      PathKeys{{"views", "texture", "naive"}, {{"out", OutputKind::kText}}},
+      RunEvalRerender);
 }
 
 }  // namespace facecap::stages

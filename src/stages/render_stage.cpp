@@ -20,7 +20,7 @@
 #include "rig/evaluate.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
-#include "synth/appearance.h"
+#include "stages/rig_texture.h"
 #include "util/errors.h"
 #include "util/log.h"
 
@@ -168,8 +168,7 @@ class Renderer {
     } else if (rig.uvs.rows() > 0 && rig.uv_triangles.rows() == rig.triangles.rows() &&
                rig.landmarks.size() == 68) {
       try {
-        texture_ = synth::MakeSkinTexture(rig, synth::DrawPersonColors(1), 1,
-                                          synth::SkinTextureOptions());
+        texture_ = GenericSkinTexture(rig);
         shading_.albedo_source = render::AlbedoSource::kTexture;
       } catch (const InvalidInputError& e) {
         FC_WARN("render: no skin texture for this rig ({}); shaded per region", e.what());

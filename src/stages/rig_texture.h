@@ -1,9 +1,11 @@
-// The albedo texture a textured rig file carries (io/texture_file.h), as the exports embed it.
+// The albedo texture a textured rig file carries (io/texture_file.h), as the exports embed it,
+// and the generic texture an untextured rig is drawn with.
 #ifndef FACECAP_STAGES_RIG_TEXTURE_H_
 #define FACECAP_STAGES_RIG_TEXTURE_H_
 
 #include <string>
 
+#include "rig/rig.h"
 #include "util/image.h"
 
 namespace facecap::stages {
@@ -11,6 +13,11 @@ namespace facecap::stages {
 // The rig file's /texture/albedo encoded as 8-bit sRGB (what glTF's base colour holds), or an
 // empty image when the file carries no texture. FileIOError for a malformed texture.
 Image8 ReadRigTextureSrgb(const std::string& rig_path);
+
+// The generic skin texture `render` draws a rig without its own texture with: the procedural
+// albedo of the wild clips' first person (skin tone, blotches, pores, redder cheeks, lips,
+// brows, lash lines), linear RGB. InvalidInputError when the rig has no UVs or 68 landmarks.
+ImageF GenericSkinTexture(const rig::Rig& rig);
 
 }  // namespace facecap::stages
 
