@@ -23,6 +23,7 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include "io/atomic_file.h"
 #include "io/image_io.h"
 #include "rig/evaluate.h"
 #include "util/errors.h"
@@ -47,21 +48,6 @@ std::string ReadWholeFile(const std::string& path, const char* what) {
   buffer << in.rdbuf();
   if (in.bad()) throw FileIOError(path + ": read error");
   return buffer.str();
-}
-
-// Writes path + ".tmp" and renames it to path, so that readers never see a partial file.
-void WriteFileAtomically(const std::string& path, const std::string& contents) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw OutputError(tmp + ": cannot create (" + std::strerror(errno) + ")");
-    out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
-    out.flush();
-    if (!out) throw OutputError(tmp + ": write failed (disk full?)");
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw OutputError(path + ": cannot rename from " + tmp + ": " + ec.message());
 }
 
 void AppendFormat(std::string* out, const char* format, ...) __attribute__((format(printf, 2, 3)));

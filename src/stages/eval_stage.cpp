@@ -15,6 +15,7 @@
 
 #include "appearance/photon_gather.h"
 #include "appearance/texture_metrics.h"
+#include "io/atomic_file.h"
 #include "io/hdf5.h"
 #include "io/rig_io.h"
 #include "io/texture_file.h"
@@ -451,11 +452,7 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
   } else {
     PrintTrackTable(scorer.scores(), summary, frames);
   }
-  if (!o.out.empty()) {
-    std::ofstream file(o.out);
-    if (!file) throw OutputError("eval track: cannot write " + o.out);
-    file << js << "\n";
-  }
+  if (!o.out.empty()) io::WriteFileAtomically(o.out, js + "\n");
 }
 
 // [eval.landmarks]
@@ -546,11 +543,7 @@ void RunEvalLandmarks(const StageFlags& flags, AppState* state) {
                 count[0], mean(0).c_str(), errors[errors.size() / 2], count[1], mean(1).c_str(),
                 count[2], mean(2).c_str());
   }
-  if (!o.out.empty()) {
-    std::ofstream file(o.out);
-    if (!file) throw OutputError("eval landmarks: cannot write " + o.out);
-    file << js.str() << "\n";
-  }
+  if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
 }
 
 // [eval.person]
@@ -617,11 +610,7 @@ void RunEvalPerson(const StageFlags& flags, AppState* state) {
                 10. * iod, rms / iod, 10. * rms, rms_landmarks / iod, 10. * rms_landmarks,
                 rms_template / iod, 10. * rms_template);
   }
-  if (!o.out.empty()) {
-    std::ofstream file(o.out);
-    if (!file) throw OutputError("eval person: cannot write " + o.out);
-    file << js.str() << "\n";
-  }
+  if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
 }
 
 // [eval.appearance]
@@ -736,11 +725,7 @@ void RunEvalAppearance(const StageFlags& flags, AppState* state) {
     std::printf("  flat colour       %.2f dB  %.2f texels (no detail)\n", m.psnr_flat_db,
                 static_cast<double>(std::max(1, score.size / 32)));
   }
-  if (!o.out.empty()) {
-    std::ofstream file(o.out);
-    if (!file) throw OutputError("eval appearance: cannot write " + o.out);
-    file << js.str() << "\n";
-  }
+  if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
 }
 
 // [eval.rerender]
@@ -844,11 +829,7 @@ void RunEvalRerender(const StageFlags& flags, AppState* state) {
     std::printf("  generic texture   %.2f dB\n  flat colour       %.2f dB\n", score.PsnrDb(1),
                 score.FlatPsnrDb());
   }
-  if (!o.out.empty()) {
-    std::ofstream file(o.out);
-    if (!file) throw OutputError("eval rerender: cannot write " + o.out);
-    file << js.str() << "\n";
-  }
+  if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
 }
 
 }  // namespace
