@@ -1,9 +1,12 @@
 #include "appearance/texture_metrics.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 #include <utility>
+
+#include <Eigen/Cholesky>
 
 #include "render/shading.h"
 #include "util/errors.h"
@@ -263,41 +266,68 @@ RerenderScore::RerenderScore(std::vector<const ImageF*> textures)
   }
 }
 
-void RerenderScore::AddFrame(const ImageF& image, const ImageF& uv_image, const ImageF& mask) {
-  if (image.channels < 3 || uv_image.channels < 3 || mask.channels != 1 ||
-      uv_image.width != image.width || uv_image.height != image.height ||
-      mask.width != image.width || mask.height != image.height) {
-    throw InvalidInputError("RerenderScore: the image, U(I) and mask differ in size or channels");
+namespace {
+
+// Per channel, the normal equations of one frame's shading fit f ~ r (a + b . n): the basis
+// r (1, n_x, n_y, n_z) of each pixel, against the frame's value f.
+struct ShadingFit {
+  std::array<Eigen::Matrix4d, 3> normal = {Eigen::Matrix4d::Zero(), Eigen::Matrix4d::Zero(),
+                                           Eigen::Matrix4d::Zero()};
+  std::array<Eigen::Vector4d, 3> target = {Eigen::Vector4d::Zero(), Eigen::Vector4d::Zero(),
+                                           Eigen::Vector4d::Zero()};
+  void Add(const Eigen::Vector3d& r, const Eigen::Vector3d& n, const Eigen::Vector3d& f) {
+    for (int c = 0; c < 3; ++c) {
+      const Eigen::Vector4d b = r[c] * Eigen::Vector4d(1., n.x(), n.y(), n.z());
+      normal[c] += b * b.transpose();
+      target[c] += b * f[c];
+    }
   }
-  // Per channel: sums of f^2 and f over the frame's pixels, and per texture of r f and r^2.
-  Eigen::Array3d ff = Eigen::Array3d::Zero(), f1 = Eigen::Array3d::Zero();
-  std::vector<Eigen::Array3d> rf(textures_.size(), Eigen::Array3d::Zero()), rr = rf;
+  // The part of sum(f^2) the best fit explains: y^T A^-1 y per channel (A regularized a little
+  // so that a texture with no variation, or normals all alike, stays solvable).
+  double Explained() const {
+    double explained = 0.;
+    for (int c = 0; c < 3; ++c) {
+      const double scale = std::max(normal[c].trace(), 1e-30);
+      const Eigen::Matrix4d a = normal[c] + 1e-9 * scale * Eigen::Matrix4d::Identity();
+      explained += target[c].dot(a.ldlt().solve(target[c]));
+    }
+    return explained;
+  }
+};
+
+}  // namespace
+
+void RerenderScore::AddFrame(const ImageF& image, const ImageF& uv_image, const ImageF& normals,
+                             const ImageF& mask) {
+  const auto same = [&](const ImageF& x, int channels) {
+    return x.width == image.width && x.height == image.height && x.channels >= channels;
+  };
+  if (image.channels < 3 || !same(uv_image, 3) || !same(normals, 3) || !same(mask, 1)) {
+    throw InvalidInputError("RerenderScore: the image, U(I), normals and mask differ in size or "
+                            "channels");
+  }
+  double ff = 0.;
+  std::vector<ShadingFit> fits(textures_.size() + 1);  // the last: the flat texture
   int64_t count = 0;
   for (int y = 0; y < image.height; ++y) {
     for (int x = 0; x < image.width; ++x) {
       if (uv_image.at(x, y, 2) <= 0.5f || mask.at(x, y) <= 0.5f) continue;
-      const Eigen::Array3d f(image.at(x, y, 0), image.at(x, y, 1), image.at(x, y, 2));
-      ff += f * f;
-      f1 += f;
+      const Eigen::Vector3d f(image.at(x, y, 0), image.at(x, y, 1), image.at(x, y, 2));
+      const Eigen::Vector3d n(normals.at(x, y, 0), normals.at(x, y, 1), normals.at(x, y, 2));
+      ff += f.squaredNorm();
       ++count;
       for (size_t t = 0; t < textures_.size(); ++t) {
-        const Eigen::Array3d r =
+        const Eigen::Vector3d r =
             render::SampleBilinear(*textures_[t], uv_image.at(x, y, 0), uv_image.at(x, y, 1))
-                .cast<double>()
-                .array();
-        rf[t] += r * f;
-        rr[t] += r * r;
+                .cast<double>();
+        fits[t].Add(r, n, f);
       }
+      fits.back().Add(Eigen::Vector3d::Ones(), n, f);
     }
   }
   if (count == 0) return;
-  // The least-squares gain g = sum(r f) / sum(r r) leaves sum(f f) - sum(r f)^2 / sum(r r).
-  for (size_t t = 0; t < textures_.size(); ++t) {
-    for (int c = 0; c < 3; ++c) {
-      error_[t] += ff[c] - (rr[t][c] > 0. ? rf[t][c] * rf[t][c] / rr[t][c] : 0.);
-    }
-  }
-  for (int c = 0; c < 3; ++c) flat_error_ += ff[c] - f1[c] * f1[c] / static_cast<double>(count);
+  for (size_t t = 0; t < textures_.size(); ++t) error_[t] += ff - fits[t].Explained();
+  flat_error_ += ff - fits.back().Explained();
   ++frames_;
   pixels_ += count;
 }

@@ -66,18 +66,20 @@ CornerAlignment MeasureCornerAlignment(const ImageF& captured, const ImageF& tru
                                        int search, double min_correlation = 0.3);
 
 // How well textures explain footage: the face pixels of tracked frames against each texture
-// sampled at the pixels' U(I) (render::SampleBilinear), after one gain per colour channel per
-// frame (least squares: each frame's lighting scales each channel), summed over frames. A flat
-// texture is scored beside them: per frame and channel, the best constant.
+// sampled at the pixels' U(I) (render::SampleBilinear) and shaded by the frame's own light,
+// fitted per frame and colour channel by least squares as first-order shading of the surface
+// normal: f ~ r (a + b . n). Any rotation of the normals is absorbed by b, so the rig's own
+// frame serves. A flat texture (r = 1) is scored beside them.
 class RerenderScore {
  public:
   // The textures to score: 3-channel linear RGB, any sizes; they must outlive this object.
   explicit RerenderScore(std::vector<const ImageF*> textures);
 
-  // One frame: `image` (linear RGB) and its `uv_image` (U(I): u, v, coverage) of one size; the
-  // pixels scored are those with coverage above 0.5 and `mask` (1 channel) above 0.5.
-  // InvalidInputError when the sizes differ.
-  void AddFrame(const ImageF& image, const ImageF& uv_image, const ImageF& mask);
+  // One frame: `image` (linear RGB), its `uv_image` (U(I): u, v, coverage) and per pixel the
+  // unit surface normal (3 channels), of one size; the pixels scored are those with coverage
+  // above 0.5 and `mask` (1 channel) above 0.5. InvalidInputError when the sizes differ.
+  void AddFrame(const ImageF& image, const ImageF& uv_image, const ImageF& normals,
+                const ImageF& mask);
 
   int frames() const { return frames_; }
   int64_t pixels() const { return pixels_; }
@@ -87,7 +89,7 @@ class RerenderScore {
 
  private:
   std::vector<const ImageF*> textures_;
-  std::vector<double> error_;  // per texture: squared error after the per-frame gains
+  std::vector<double> error_;  // per texture: squared error after the per-frame shading fits
   double flat_error_ = 0.;
   int frames_ = 0;
   int64_t pixels_ = 0;

@@ -13,6 +13,8 @@
 #include <map>
 #include <sstream>
 
+#include <Eigen/Geometry>
+
 #include "appearance/photon_gather.h"
 #include "appearance/texture_metrics.h"
 #include "io/atomic_file.h"
@@ -800,14 +802,31 @@ void RunEvalRerender(const StageFlags& flags, AppState* state) {
   const io::Shape uv_shape = views.CheckShape("/frames/uv", {-1, -1, -1, 3});
   const int size = static_cast<int>(uv_shape[1]);
   const io::Shape image_shape = views.CheckShape("/frames/image", {uv_shape[0], -1, -1, 3});
+  views.CheckShape("/frames/triangle", {uv_shape[0], size, size});
   Image8 image(static_cast<int>(image_shape[2]), static_cast<int>(image_shape[1]), 3);
-  ImageF uv(size, size, 3), linear;
+  ImageF uv(size, size, 3), linear, normals(size, size, 3);
+  Image<int32_t> triangles(size, size, 1);
+  // Per triangle, its unit normal on the neutral mesh: the shading fit's normals, in the rig's
+  // frame (each frame's fitted light absorbs the head's rotation).
+  std::vector<Eigen::Vector3f> face_normal(rig.triangles.rows());
+  for (int t = 0; t < rig.triangles.rows(); ++t) {
+    const Eigen::Vector3f a = rig.neutral.row(rig.triangles(t, 0));
+    const Eigen::Vector3f b = rig.neutral.row(rig.triangles(t, 1));
+    const Eigen::Vector3f c = rig.neutral.row(rig.triangles(t, 2));
+    face_normal[t] = (b - a).cross(c - a).normalized();
+  }
   for (int64_t f = 0; f < uv_shape[0]; ++f) {
     if (o.holdout_every > 0 && f % o.holdout_every != o.holdout_every - 1) continue;
     views.ReadFrames<uint8_t>("/frames/image", f, 1, image.data.data());
     views.ReadFrames<float>("/frames/uv", f, 1, uv.data.data());
+    views.ReadFrames<int32_t>("/frames/triangle", f, 1, triangles.data.data());
+    for (int i = 0; i < size * size; ++i) {
+      const int32_t t = triangles.data[i];
+      const bool valid = t >= 0 && t < rig.triangles.rows() && face_normal[t].allFinite();
+      for (int k = 0; k < 3; ++k) normals.data[3 * i + k] = valid ? face_normal[t][k] : 0.f;
+    }
     render::Image8ToLinear(image, true, &linear);
-    score.AddFrame(render::ResampleBilinear(linear, size, size), uv,
+    score.AddFrame(render::ResampleBilinear(linear, size, size), uv, normals,
                    FacePixels(uv, face, kMaskTexels, o.edge_margin_px));
   }
   if (score.pixels() == 0) throw FileIOError(o.views + ": no face pixel in the frames scored");
@@ -817,8 +836,9 @@ void RunEvalRerender(const StageFlags& flags, AppState* state) {
   if (!naive.empty()) js << ", \"psnr_naive_db\": " << JsonNumber(score.PsnrDb(2));
   js << ", \"psnr_flat_db\": " << JsonNumber(score.FlatPsnrDb()) << ", \"frames\": "
      << score.frames() << ", \"pixels\": " << score.pixels()
-     << ", \"scored\": \"face-region pixels of the frames, linear RGB, each frame's render "
-        "after one gain per colour channel\"}";
+     << ", \"scored\": \"face-region pixels of the frames, linear RGB; each frame's render "
+        "shaded by first-order lighting of the surface normal fitted per frame and colour "
+        "channel\"}";
   if (o.json) {
     std::cout << js.str() << std::endl;
   } else {
@@ -876,9 +896,10 @@ void RegisterEval(CLI::App* app, AppState* state) {
   AddStage<EvalRerenderOptions>(
       eval, state, "rerender", "eval.rerender", "eval rerender",
       "Tracked footage re-rendered with a captured texture against the footage itself (no "
-      "truth needed, for real video): PSNR over the face pixels of held-out frames after one "
-      "gain per colour channel per frame, beside the naive capture, the generic texture and a "
-      "flat colour; one JSON object",
+      "truth needed, for real video): PSNR over the face pixels of held-out frames, each render "
+      "shaded by the frame's light (first-order in the surface normal, fitted per frame and "
+      "colour channel), beside the naive capture, the generic texture and a flat colour; one "
+      "JSON object",
       PathKeys{{"views", "texture", "naive"}, {{"out", OutputKind::kText}}},
       RunEvalRerender);
 }
