@@ -45,6 +45,7 @@ const std::map<std::string, StageInputs>& ValidRuns() {
       {"rig.demo", {{}, "", {}}},
       {"rig.import", {{{"obj_dir", "objs"}, {"gltf", ""}}, "", {"obj_dir", "gltf"}}},
       {"rig.export", {{{"rig", "rig.h5"}}, "", {}}},
+      {"rig.perturb", {{{"rig", "rig.h5"}}, "", {}}},
       {"rig.calibrate",
        {{{"rig", "rig.h5"}, {"landmark_model", kDlibModel}},
         "--people 1 --frames 1 --size 96 --threads 1", {}}},
@@ -101,6 +102,9 @@ const std::map<std::string, StageInputs>& ValidRuns() {
       {"appearance.gather", {{{"views", "turntable.h5"}, {"images", ""}}, "--texture-size 32", {}}},
       {"eval.appearance",
        {{{"truth", "clip.h5"}, {"texture", "texture.h5"}, {"naive", ""}}, "", {}}},
+      {"eval.rerender",
+       {{{"views", "turntable.h5"}, {"texture", "texture.h5"}, {"naive", ""}}, "--holdout-every 0",
+        {}}},
       {"eval.landmarks",
        {{{"frames", "frames.h5"}, {"track", "track.h5"}, {"rig", "rig.h5"}}, "", {}}},
   };

@@ -69,7 +69,8 @@ TEST(Cli, UnknownJobFileTableExitsWithUsageCodeAndNamesValidTables) {
   Result r = RunFacecap("rig demo --job " + job + " --out " + dir.File("rig.h5"));
   EXPECT_EQ(r.code, kExitUsage) << r.output;
   EXPECT_NE(r.output.find(job + ": unknown table [rig.demoo]"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("valid tables: run, rig.demo, rig.import, rig.export, rig.calibrate, render"),
+  EXPECT_NE(r.output.find("valid tables: run, rig.demo, rig.import, rig.perturb, rig.export, "
+                          "rig.calibrate, render"),
             std::string::npos)
       << r.output;
   EXPECT_FALSE(std::ifstream(dir.File("rig.h5")).good());
