@@ -27,6 +27,7 @@
 #include "stages/crop_framing.h"
 #include "stages/frame_loop.h"
 #include "stages/frames_video.h"
+#include "stages/holdout.h"
 #include "stages/ingested_frames.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
@@ -561,7 +562,7 @@ std::vector<appearance::Particle> ReadParticles(const AppearanceGatherOptions& o
   Image<int32_t> triangles(size, size, 1);
   std::vector<appearance::Particle> particles;
   for (int64_t v = 0; v < count; ++v) {
-    if (o.holdout_every > 0 && v % o.holdout_every == o.holdout_every - 1) continue;
+    if (IsHeldOut(v, o.holdout_every)) continue;
     images.ReadFrames<uint8_t>(dataset, v, 1, image.data.data());
     views.ReadFrames<float>("/frames/uv", v, 1, uv.data.data());
     views.ReadFrames<int32_t>("/frames/triangle", v, 1, triangles.data.data());

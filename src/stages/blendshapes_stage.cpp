@@ -32,6 +32,7 @@
 #include "nn/blendshape_generator.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
+#include "stages/holdout.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
 #include "train/controller.h"
@@ -542,7 +543,7 @@ LoadedModel LoadModel(const std::string& path) {
 std::vector<int> SeenExpressions(int count, int holdout_every) {
   std::vector<int> seen;
   for (int k = 0; k < count; ++k) {
-    if (holdout_every == 0 || k % holdout_every != holdout_every - 1) seen.push_back(k);
+    if (!IsHeldOut(k, holdout_every)) seen.push_back(k);
   }
   return seen;
 }
@@ -764,8 +765,8 @@ void RunEvalBlendshapes(const StageFlags& flags, AppState* state) {
     }
     const int K = static_cast<int>(data.alpha.rows());
     std::vector<int> unseen;
-    for (int k = 0; k < K && holdout_every > 0; ++k) {
-      if (k % holdout_every == holdout_every - 1) unseen.push_back(k);
+    for (int k = 0; k < K; ++k) {
+      if (IsHeldOut(k, holdout_every)) unseen.push_back(k);
     }
     // Methods: the template, example-based rigging, ours, and the true personal shapes (the
     // floor that capture noise and unwanted motion leave; synthetic databases only).

@@ -28,6 +28,7 @@
 #include "nn/deepfake_io.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
+#include "stages/holdout.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
 #include "train/controller.h"
@@ -332,7 +333,7 @@ std::vector<int64_t> UsableFrames(const io::H5File& f, const std::string& datase
     found = f.ReadVector<uint8_t>("/frames/found", n);
   }
   for (int64_t i = 0; i < n; ++i) {
-    if (holdout_every > 0 && i % holdout_every == holdout_every - 1) continue;
+    if (IsHeldOut(i, holdout_every)) continue;
     if (found.empty() || found[i]) usable.push_back(i);
   }
   return usable;

@@ -28,6 +28,7 @@
 #include "rig/compare.h"
 #include "rig/evaluate.h"
 #include "stages/cli.h"
+#include "stages/holdout.h"
 #include "stages/ingested_frames.h"
 #include "stages/tracked_rig.h"
 #include "stages/registry.h"
@@ -522,7 +523,7 @@ void RunEvalLandmarks(const StageFlags& flags, AppState* state) {
     }
     e /= 68. * iod;
     errors.push_back(e);
-    const bool held_out = o.holdout_every > 0 && f % o.holdout_every == o.holdout_every - 1;
+    const bool held_out = IsHeldOut(f, o.holdout_every);
     for (int g : {0, held_out ? 1 : 2}) {
       sum[g] += e;
       ++count[g];
@@ -816,7 +817,7 @@ void RunEvalRerender(const StageFlags& flags, AppState* state) {
     face_normal[t] = (b - a).cross(c - a).normalized();
   }
   for (int64_t f = 0; f < uv_shape[0]; ++f) {
-    if (o.holdout_every > 0 && f % o.holdout_every != o.holdout_every - 1) continue;
+    if (o.holdout_every > 0 && !IsHeldOut(f, o.holdout_every)) continue;
     views.ReadFrames<uint8_t>("/frames/image", f, 1, image.data.data());
     views.ReadFrames<float>("/frames/uv", f, 1, uv.data.data());
     views.ReadFrames<int32_t>("/frames/triangle", f, 1, triangles.data.data());
