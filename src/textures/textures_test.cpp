@@ -1,0 +1,172 @@
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "rig/demo_head.h"
+#include "textures/compress_stretch.h"
+#include "textures/influence.h"
+#include "util/errors.h"
+
+namespace facecap::textures {
+namespace {
+
+const rig::Rig& Head() {
+  static const rig::Rig head = [] {
+    rig::DemoHeadOptions o;
+    o.resolution = 60;
+    return rig::MakeDemoHead(o);
+  }();
+  return head;
+}
+
+TEST(OneRing, NeighboursOfTwoTriangles) {
+  rig::Triangles tris(2, 3);
+  tris << 0, 1, 2, 2, 1, 3;
+  const OneRing ring = BuildOneRing(tris, 5);
+  auto of = [&](int v) {
+    return std::vector<int>(ring.neighbor.begin() + ring.offset[v], ring.neighbor.begin() + ring.offset[v + 1]);
+  };
+  EXPECT_EQ(of(0), (std::vector<int>{1, 2}));
+  EXPECT_EQ(of(1), (std::vector<int>{0, 2, 3}));
+  EXPECT_EQ(of(3), (std::vector<int>{1, 2}));
+  EXPECT_TRUE(of(4).empty());
+  rig::Vertices v(5, 3);
+  v << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 5, 5, 5;
+  const Eigen::VectorXf e = MeanEdgeLength(ring, v);
+  EXPECT_NEAR(e[0], 1.f, 1e-6f);
+  EXPECT_NEAR(e[1], (1.f + std::sqrt(2.f) + 1.f) / 3.f, 1e-6f);
+  EXPECT_EQ(e[4], 0.f);
+  EXPECT_THROW(BuildOneRing(tris, 3), InvalidInputError);
+}
+
+// A mesh scaled by s about any point: every edge scales by s, so the influence is pure
+// stretch (s > 1) or pure compress (s < 1) of |s - 1| E_N(x), per vertex and per texel.
+TEST(Influence, UniformScaleIsPureStretchOrCompress) {
+  const rig::Rig& head = Head();
+  const OneRing ring = BuildOneRing(head.triangles, head.NumVertices());
+  const Eigen::VectorXf en = MeanEdgeLength(ring, head.neutral);
+  const TexelInterpolator texels(head, 64);
+  const std::vector<float> en_map = texels.Interpolate(en);
+  int covered = 0;
+  for (int t = 0; t < texels.NumTexels(); ++t) covered += texels.Covered(t);
+  ASSERT_GT(covered, texels.NumTexels() / 4);
+  for (float s : {0.8f, 1.25f}) {
+    rig::Vertices scaled = head.neutral;
+    for (int v = 0; v < scaled.rows(); ++v) scaled.row(v) = s * (scaled.row(v) - Eigen::RowVector3f(1, 2, 3)) + Eigen::RowVector3f(1, 2, 3);
+    const VertexInfluence inf = InfluenceValues(en, MeanEdgeLength(ring, scaled));
+    const Eigen::VectorXf& active = s > 1 ? inf.stretch : inf.compress;
+    const Eigen::VectorXf& idle = s > 1 ? inf.compress : inf.stretch;
+    EXPECT_EQ(idle.cwiseAbs().maxCoeff(), 0.f);
+    EXPECT_LT((active - std::abs(s - 1.f) * en).cwiseAbs().maxCoeff(), 1e-5f);
+    const std::vector<float> map = InfluenceMap(texels, inf);
+    const int a = s > 1 ? 1 : 0;
+    for (int t = 0; t < texels.NumTexels(); ++t) {
+      ASSERT_EQ(map[2 * t + 1 - a], 0.f);
+      ASSERT_NEAR(map[2 * t + a], std::abs(s - 1.f) * en_map[t], 1e-5f);
+      if (texels.Covered(t)) {
+        ASSERT_GT(map[2 * t + a], 0.f);
+      }
+    }
+  }
+}
+
+// Random influence maps (many texels with zero influence, as real ones) and textures.
+struct RandomLibrary {
+  size_t n = 500;
+  int channels = 5;
+  std::vector<std::vector<float>> influence, textures;
+  RandomLibrary(int maps, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.f, 1.f);
+    for (int i = 0; i < maps; ++i) {
+      std::vector<float> inf(2 * n), tex(n * channels);
+      for (float& v : inf) v = u(rng) < 0.5f ? 0.f : 0.3f * u(rng);
+      for (float& v : tex) v = u(rng);
+      influence.push_back(inf);
+      textures.push_back(tex);
+    }
+  }
+  std::vector<const float*> Influence() const {
+    std::vector<const float*> p;
+    for (const auto& m : influence) p.push_back(m.data());
+    return p;
+  }
+  std::vector<const float*> Textures() const {
+    std::vector<const float*> p;
+    for (const auto& m : textures) p.push_back(m.data());
+    return p;
+  }
+};
+
+// Eq. 12-13 written out term by term in double precision.
+double DirectMap(const RandomLibrary& lib, size_t t, int c, int kind, double b) {
+  double z = 0;
+  for (const auto& m : lib.influence) z += std::exp(b * m[2 * t + kind]);
+  double sum = 0;
+  for (size_t i = 0; i < lib.influence.size(); ++i) {
+    sum += std::exp(b * lib.influence[i][2 * t + kind]) / z * lib.textures[i][t * lib.channels + c];
+  }
+  return sum;
+}
+
+TEST(CompressStretch, Eq12And13MatchTheDirectFormula) {
+  const RandomLibrary lib(7, 3);
+  for (float b : {1.f, 30.f}) {
+    const CompressStretchMaps maps = ExtractCompressStretch(lib.Influence(), lib.Textures(), lib.n, lib.channels, b);
+    double worst = 0;
+    for (size_t t = 0; t < lib.n; ++t) {
+      for (int c = 0; c < lib.channels; ++c) {
+        worst = std::max(worst, std::abs(maps.compress[t * lib.channels + c] - DirectMap(lib, t, c, 0, b)));
+        worst = std::max(worst, std::abs(maps.stretch[t * lib.channels + c] - DirectMap(lib, t, c, 1, b)));
+      }
+    }
+    EXPECT_LT(worst, 1e-6) << "sharpness " << b;
+  }
+}
+
+TEST(CompressStretch, Eq14MatchesTheDenseFormulaAndZeroWeightsGiveTheNeutral) {
+  const RandomLibrary expressions(6, 5), blendshapes(9, 7);
+  const float b = 20.f;
+  const CompressStretchMaps maps = ExtractCompressStretch(expressions.Influence(), expressions.Textures(),
+                                                          expressions.n, expressions.channels, b);
+  const std::vector<float> neutral = blendshapes.textures[0];
+  const DynamicTexture dyn(expressions.n, expressions.channels, neutral, maps, blendshapes.Influence(), b);
+  EXPECT_EQ(dyn.Evaluate(std::vector<float>(9, 0.f)), neutral);  // exactly
+  const auto nc = NormalizeInfluence(blendshapes.Influence(), blendshapes.n, 2, 0, b);
+  const auto ns = NormalizeInfluence(blendshapes.Influence(), blendshapes.n, 2, 1, b);
+  std::vector<float> alpha = {0.f, 0.3f, 1.f, 0.f, 0.7f, 0.1f, 0.f, 0.5f, 0.9f};
+  const std::vector<float> got = dyn.Evaluate(alpha);
+  double worst = 0;
+  for (size_t t = 0; t < expressions.n; ++t) {
+    double wc = 0, ws = 0;
+    for (int i = 0; i < 9; ++i) {
+      wc += alpha[i] * nc[i][t];
+      ws += alpha[i] * ns[i][t];
+    }
+    for (int c = 0; c < expressions.channels; ++c) {
+      const size_t k = t * expressions.channels + c;
+      const double want = neutral[k] + wc * (maps.compress[k] - neutral[k]) + ws * (maps.stretch[k] - neutral[k]);
+      worst = std::max(worst, std::abs(got[k] - want));
+    }
+  }
+  EXPECT_LT(worst, 1e-5);
+  EXPECT_THROW(dyn.Evaluate(std::vector<float>(8, 0.f)), InvalidInputError);
+}
+
+// Where no blendshape has influence the softmax is uniform: every blendshape contributes
+// alpha_i / M there, as eq. 12 and 14 say.
+TEST(CompressStretch, ZeroInfluenceTexelsShareTheWeightsEvenly) {
+  const size_t n = 4;
+  std::vector<float> zero(2 * n, 0.f), one(2 * n, 0.f);
+  one[0] = 0.5f;  // texel 0: compress influence of blendshape 1 only
+  CompressStretchMaps maps{std::vector<float>(n, 1.f), std::vector<float>(n, 2.f)};
+  const DynamicTexture dyn(n, 1, std::vector<float>(n, 0.f), maps, {zero.data(), one.data()}, 2.f);
+  const std::vector<float> out = dyn.Evaluate({1.f, 0.f});
+  const double e = std::exp(1.0);  // exp(b * 0.5)
+  EXPECT_NEAR(out[0], 1.0 / (1.0 + e) * 1.0 + 0.5 * 2.0, 1e-6);
+  EXPECT_NEAR(out[1], 0.5 * 1.0 + 0.5 * 2.0, 1e-6);
+}
+
+}  // namespace
+}  // namespace facecap::textures
