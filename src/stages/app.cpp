@@ -25,6 +25,7 @@ void RegisterAll(CLI::App* app, AppState* state) {
   RegisterPerson(app, state);
   RegisterAppearance(app, state);
   RegisterEval(app, state);
+  RegisterTextures(app, state);
   RegisterRun(app, state);
 }
 

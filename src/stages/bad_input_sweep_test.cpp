@@ -84,6 +84,7 @@ const std::map<std::string, StageInputs>& ValidRuns() {
       {"blendshapes.infer", {{{"model", "bsgen.h5"}, {"neutral", "objs/neutral.obj"}}, "", {}}},
       {"eval.blendshapes",
        {{{"scans", "scans.h5"}, {"baselines", "baselines.h5"}, {"model", "bsgen.h5"}}, "", {}}},
+      {"eval.textures", {{{"scans", "scans.h5"}}, "", {}}},
       {"track",
        {{{"rig", "rig.h5"}, {"targets", "samples.h5"}, {"frames", ""}},
         "--targets-dataset /samples/segmentation", {}}},

@@ -918,13 +918,7 @@ void RegisterBlendshapes(CLI::App* app, AppState* state) {
       "One neutral mesh to a personalized rig.h5",
       PathKeys{{"model", "neutral"}, {{"out", OutputKind::kHdf5}}},
       RunBlendshapesInfer);
-  CLI::App* eval = nullptr;
-  try {
-    eval = app->get_subcommand("eval");
-  } catch (const CLI::OptionNotFound&) {
-    eval = app->add_subcommand("eval", "Evaluations with tables and JSON metrics");
-    eval->require_subcommand(1);
-  }
+  CLI::App* eval = EvalSubcommand(app);
   AddStage<EvalBlendshapesOptions>(
       eval, state, "blendshapes", "eval.blendshapes", "eval blendshapes",
       "Reconstruction errors of template, example-based and generated blendshapes on training and "

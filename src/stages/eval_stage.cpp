@@ -34,6 +34,7 @@
 #include "stages/registry.h"
 #include "stages/rig_texture.h"
 #include "util/errors.h"
+#include "util/json.h"
 #include "util/log.h"
 
 namespace facecap::stages {
@@ -76,13 +77,6 @@ struct EvalTrackOptions {
 double RotationAngleDeg(const rig::RigidPose& a, const rig::RigidPose& b) {
   const Eigen::Matrix3d r = (a.Rotation().transpose() * b.Rotation()).cast<double>();
   return std::acos(std::clamp((r.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
-}
-
-std::string JsonNumber(double v) {
-  if (!std::isfinite(v)) return "null";
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.6g", v);
-  return text;
 }
 
 // A truth weight above this counts as active (the weight MAE over active weights).
@@ -672,12 +666,6 @@ AppearanceScore ScoreCapture(const std::string& path, const rig::Rig& truth_rig,
   return score;
 }
 
-std::string JsonList(const std::vector<double>& values) {
-  std::string out = "[";
-  for (size_t i = 0; i < values.size(); ++i) out += (i ? ", " : "") + JsonNumber(values[i]);
-  return out + "]";
-}
-
 void RunEvalAppearance(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -855,14 +843,18 @@ void RunEvalRerender(const StageFlags& flags, AppState* state) {
 
 }  // namespace
 
-void RegisterEval(CLI::App* app, AppState* state) {
-  CLI::App* eval = nullptr;
+CLI::App* EvalSubcommand(CLI::App* app) {
   try {
-    eval = app->get_subcommand("eval");
+    return app->get_subcommand("eval");
   } catch (const CLI::OptionNotFound&) {
-    eval = app->add_subcommand("eval", "Metrics of an output against synthetic truth");
+    CLI::App* eval = app->add_subcommand("eval", "Metrics of an output against synthetic truth");
     eval->require_subcommand(1);
+    return eval;
   }
+}
+
+void RegisterEval(CLI::App* app, AppState* state) {
+  CLI::App* eval = EvalSubcommand(app);
   AddStage<EvalTrackOptions>(
       eval, state, "track", "eval.track", "eval track",
       "Tracking accuracy against the truth, each beside the neutral face's: pose error (deg), "

@@ -183,6 +183,9 @@ void RegisterPerson(CLI::App* app, AppState* state);
 void RegisterAppearance(CLI::App* app, AppState* state);
 // `eval track` (and other metrics) under an `eval` subcommand, made when absent.
 void RegisterEval(CLI::App* app, AppState* state);
+void RegisterTextures(CLI::App* app, AppState* state);
+// The `eval` subcommand, added on first use (several files register evaluations).
+CLI::App* EvalSubcommand(CLI::App* app);
 void RegisterRun(CLI::App* app, AppState* state);
 
 std::string VersionReport(const dist::Comm& comm);

@@ -11,9 +11,18 @@
 //   /scans/truth/personal_vertices [X] (the x where the personal form applies; attribute
 //   personal_strength s): the terms of scan_database.h's S_i^j, for analyses of what a
 //   neutral can predict (analysis/blendshapes_ceiling.py)   (synthetic only)
+//   /scans/textures/neutral [P, S, S, 5]      the neutral skin maps in the template's UV layout
+//   /scans/textures/offsets [P, K, S, S, 5]   each expression's maps minus the neutral's
+//     channels albedo R, G, B (linear), specular intensity, displacement (mm along the
+//     normal); synth/skin_dynamics.h makes them from the noise-free expression's strain
+//   /scans/truth/skin [P, 5]                   age, wrinkle depth (mm), wrinkle frequency
+//     (1/cm), flush, blanch: the person's skin dynamics   (synthetic with textures only)
+//   /scans/truth/shape_offsets [P, N, S, S, 5] each true blendshape's maps at weight 1 minus
+//     the neutral's   (synthetic with textures only)
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <sstream>
 
 #include "assets/geometry_image.h"
@@ -26,6 +35,7 @@
 #include "stages/frame_loop.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
+#include "synth/skin_dynamics.h"
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/parallel_for.h"
@@ -40,6 +50,7 @@ struct ScansSynthOptions {
   int test_people = 12;                  // the last test_people are held out
   int head_resolution = 60;              // demo head grid resolution (vertex count)
   std::vector<std::string> facs = assets::DefaultFacsTable();  // FACS table name=shape+shape
+  int texture_size = 128;                // skin maps' width and height (0: meshes only)
   int threads = 0;                       // threads (0: the cores divided among the node's ranks)
   assets::ScanSynthOptions synth;        // personal shapes and capture noise
 
@@ -50,6 +61,8 @@ struct ScansSynthOptions {
     v("test_people", test_people, "the last test_people people are held out for evaluation");
     v("head_resolution", head_resolution, "demo head grid resolution ([60, 300]; 100 is about 9,000 vertices)");
     v("facs", facs, "FACS table: one 'name=shapeA+shapeB' entry per expression, covering every template shape");
+    v("texture_size", texture_size, "width and height of the skin maps (albedo, specular, displacement) of every "
+                                    "neutral and expression, [32, 2048]; 0 writes meshes only");
     v("threads", threads, "threads (0: the cores divided among the node's ranks)");
     synth.Visit(v);
   }
@@ -60,6 +73,10 @@ struct ScansSynthOptions {
     if (head_resolution < 60 || head_resolution > 300) { *why = "head_resolution must be in [60, 300]"; return false; }
     if (facs.empty()) { *why = "the FACS table is empty"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    if (texture_size != 0 && (texture_size < 32 || texture_size > 2048)) {
+      *why = "texture_size must be 0 or in [32, 2048]";
+      return false;
+    }
     return synth.Check(why);
   }
 };
@@ -105,6 +122,42 @@ void WriteDatabaseHeader(io::H5File* f, const assets::LinearShapes& tmpl, const 
   f->SetAttribute("/scans/people/expressions", "units", std::string("cm"));
 }
 
+// Person j's skin maps: the neutral (S^2 x 5) followed by each expression's offset from it
+// (K x S^2 x 5), the expressions' strain taken on their noise-free meshes, then each true
+// blendshape's offset at weight 1 (N x S^2 x 5); and the person's skin parameters.
+struct PersonTextures {
+  std::vector<float> maps;
+  std::vector<float> skin;
+};
+PersonTextures SynthesizePersonTextures(const rig::Rig& head, const textures::OneRing& ring,
+                                        const textures::TexelInterpolator& texels, const assets::ScanPerson& person,
+                                        uint64_t seed) {
+  const int V = head.NumVertices(), K = static_cast<int>(person.true_weights.rows());
+  const synth::PersonColors colors = synth::DrawPersonColors(seed);
+  const synth::SkinDynamics skin = synth::DrawSkinDynamics(seed + 1);
+  const std::vector<float> neutral = synth::NeutralSkinMaps(head, texels, colors, skin, seed + 2);
+  auto mesh = [&](const Eigen::VectorXf& column) {
+    return rig::Vertices(Eigen::Map<const rig::Vertices>(column.data(), V, 3));
+  };
+  const Eigen::VectorXf en = textures::MeanEdgeLength(ring, mesh(person.neutral));
+  PersonTextures out;
+  out.maps = neutral;
+  std::vector<float> compress, stretch;
+  for (int k = 0; k < K; ++k) {
+    const Eigen::VectorXf clean = person.neutral + person.true_deltas * person.true_weights.row(k).transpose();
+    synth::RelativeStrain(ring, texels, en, mesh(clean), &compress, &stretch);
+    const std::vector<float> e = synth::ExpressionSkinMaps(neutral, texels, skin, compress, stretch);
+    for (size_t i = 0; i < e.size(); ++i) out.maps.push_back(e[i] - neutral[i]);
+  }
+  for (int s = 0; s < person.true_deltas.cols(); ++s) {
+    synth::RelativeStrain(ring, texels, en, mesh(person.neutral + person.true_deltas.col(s)), &compress, &stretch);
+    const std::vector<float> e = synth::ExpressionSkinMaps(neutral, texels, skin, compress, stretch);
+    for (size_t i = 0; i < e.size(); ++i) out.maps.push_back(e[i] - neutral[i]);
+  }
+  out.skin = {skin.age, skin.wrinkle_depth_mm, skin.wrinkle_frequency, skin.flush, skin.blanch};
+  return out;
+}
+
 void RunScansSynth(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -139,12 +192,23 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
   const int P = o.people, V = tmpl.NumVertices(), N = tmpl.NumShapes(), K = static_cast<int>(alpha.rows());
   const dist::Range mine = dist::BlockRange(P, comm.rank(), comm.size());
   std::vector<assets::ScanPerson> people(mine.end - mine.begin);
+  std::vector<PersonTextures> person_textures(people.size());
+  const int S = o.texture_size;
+  std::unique_ptr<textures::TexelInterpolator> texels;
+  const textures::OneRing ring = textures::BuildOneRing(head.triangles, head.NumVertices());
+  if (S > 0) texels = std::make_unique<textures::TexelInterpolator>(head, S);
   ParallelFor(0, static_cast<int>(people.size()), ThreadsPerRank(o.threads), [&](int k) {
-    people[k] = assets::SynthesizeScanPerson(head, tmpl, personal, alpha, static_cast<int>(mine.begin) + k, o.synth);
+    const int j = static_cast<int>(mine.begin) + k;
+    people[k] = assets::SynthesizeScanPerson(head, tmpl, personal, alpha, j, o.synth);
+    if (texels) {
+      const uint64_t seed = static_cast<uint64_t>(o.synth.seed) * 1000003u + static_cast<uint64_t>(j) * 7919u + 17u;
+      person_textures[k] = SynthesizePersonTextures(head, ring, *texels, people[k], seed);
+    }
   });
   // Gather to rank 0 as bytes.
   std::vector<uint8_t> bytes;
-  for (const auto& p : people) {
+  for (size_t k = 0; k < people.size(); ++k) {
+    const assets::ScanPerson& p = people[k];
     auto put = [&](const float* data, size_t n) {
       const uint8_t* b = reinterpret_cast<const uint8_t*>(data);
       bytes.insert(bytes.end(), b, b + n * sizeof(float));
@@ -155,6 +219,8 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
     put(p.true_weights.data(), p.true_weights.size());  // column-major K x N
     put(p.global_factors.data(), p.global_factors.size());
     put(p.personal_factors.data(), p.personal_factors.size());
+    put(person_textures[k].maps.data(), person_textures[k].maps.size());
+    put(person_textures[k].skin.data(), person_textures[k].skin.size());
   }
   const auto gathered = comm.Gather(bytes);
   dist::CoordinateExceptions(comm, [&] {
@@ -171,10 +237,25 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
     for (int j = P - o.test_people; j < P; ++j) split[j] = 1;
     f.WriteVector<int32_t>("/scans/people/split", split);
     f.SetAttribute("/scans/people/split", "values", std::string("0 training, 1 held out"));
+    const size_t texture_floats = static_cast<size_t>(S) * S * synth::kSkinChannels;
+    const int skin_parameters = S > 0 ? synth::SkinDynamics::kNumParameters : 0;
+    if (S > 0) {
+      f.CreateFrames<float>("/scans/textures/neutral", {S, S, synth::kSkinChannels}, P, 1);
+      f.CreateFrames<float>("/scans/textures/offsets", {K, S, S, synth::kSkinChannels}, P, 1);
+      for (const char* name : {"/scans/textures/neutral", "/scans/textures/offsets"}) {
+        f.SetAttribute(name, "channels", std::string("albedo_r albedo_g albedo_b specular displacement_mm"));
+        f.SetAttribute(name, "layout", std::string("the template's UV layout, row 0 at v = 1 (OBJ convention)"));
+      }
+      f.CreateFrames<float>("/scans/truth/shape_offsets", {N, S, S, synth::kSkinChannels}, P, 1);
+      f.SetAttribute("/scans/truth/shape_offsets", "channels", std::string("albedo_r albedo_g albedo_b specular displacement_mm"));
+      f.CreateFrames<float>("/scans/truth/skin", {skin_parameters}, P, 64);
+      f.SetAttribute("/scans/truth/skin", "columns", std::string("age wrinkle_depth_mm wrinkle_frequency_per_cm flush blanch"));
+    }
     int person = 0;
     for (const auto& chunk : gathered) {
       size_t at = 0;
-      const size_t per_person = sizeof(float) * (3 * V + 3 * V * K + 3 * V * N + K * N + 2 * N);
+      const size_t per_person = sizeof(float) * (3 * V + 3 * V * K + 3 * V * N + K * N + 2 * N +
+                                                 (K + N + 1) * texture_floats + skin_parameters);
       for (; at + per_person <= chunk.size(); at += per_person, ++person) {
         const float* d = reinterpret_cast<const float*>(chunk.data() + at);
         f.WriteFrames<float>("/scans/people/neutral", person, 1, d);
@@ -187,6 +268,13 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
         const float* factors = d + 3 * V + 3 * V * K + 3 * V * N + K * N;
         f.WriteFrames<float>("/scans/truth/global_factors", person, 1, factors);
         f.WriteFrames<float>("/scans/truth/personal_factors", person, 1, factors + N);
+        if (S > 0) {
+          const float* maps = factors + 2 * N;
+          f.WriteFrames<float>("/scans/textures/neutral", person, 1, maps);
+          f.WriteFrames<float>("/scans/textures/offsets", person, 1, maps + texture_floats);
+          f.WriteFrames<float>("/scans/truth/shape_offsets", person, 1, maps + (K + 1) * texture_floats);
+          f.WriteFrames<float>("/scans/truth/skin", person, 1, maps + (K + N + 1) * texture_floats);
+        }
       }
     }
     if (person != P) throw ParallelConsistencyError("scans synth: gathered " + std::to_string(person) + " people");

@@ -1,0 +1,249 @@
+// facecap eval textures: dynamic textures (paper 001 Sec. 5, eq. 10-14) on the held-out
+// people of a textured scan database, against the true expression textures.
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#include "io/atomic_file.h"
+#include "io/rig_io.h"
+#include "stages/cli.h"
+#include "stages/registry.h"
+#include "synth/skin_dynamics.h"
+#include "textures/compress_stretch.h"
+#include "textures/influence.h"
+#include "util/errors.h"
+#include "util/json.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+namespace {
+
+// [eval.textures]
+struct EvalTexturesOptions {
+  std::string scans = "scans.h5";  // textured scan database (scans synth)
+  float sharpness = 100.f;         // b of eq. 12, per cm
+  bool json = true;                // print one JSON object (else a table)
+  std::string out = "";            // also write the JSON to this file
+
+  template <class V>
+  void Visit(V&& v) {
+    v("scans", scans, "textured scan database (scans synth with texture_size > 0)");
+    v("sharpness", sharpness, "b of eq. 12's softmax exp(b I) over the influence maps, per cm of edge length "
+                              "change (the paper's equation: 1)");
+    v("json", json, "print one JSON object (false: a readable table)");
+    v("out", out, "also write the JSON object to this file (empty: none)");
+  }
+  bool Check(std::string* why) const {
+    if (scans.empty()) { *why = "scans must name a file"; return false; }
+    if (!(sharpness > 0.f && sharpness <= 1000.f)) { *why = "sharpness must be in (0, 1000]"; return false; }
+    return true;
+  }
+};
+
+// Squared errors per layer (albedo over its 3 channels, specular, displacement in mm) over
+// the texels of a region.
+struct LayerErrors {
+  double albedo = 0, specular = 0, displacement = 0;
+  int64_t texels = 0;
+  void Add(const float* truth, const float* estimate) {
+    double a = 0;
+    for (int c = 0; c < 3; ++c) a += (truth[c] - estimate[c]) * static_cast<double>(truth[c] - estimate[c]);
+    albedo += a / 3.0;
+    specular += (truth[3] - estimate[3]) * static_cast<double>(truth[3] - estimate[3]);
+    displacement += (truth[4] - estimate[4]) * static_cast<double>(truth[4] - estimate[4]);
+    ++texels;
+  }
+  // PSNR with peak 1 (albedo, specular) and 1 mm (displacement).
+  static double Psnr(double sum, int64_t n) { return n ? -10.0 * std::log10(std::max(sum / n, 1e-20)) : 0.0; }
+  std::string Json() const {
+    return "{\"albedo_db\": " + JsonNumber(Psnr(albedo, texels)) + ", \"specular_db\": " +
+           JsonNumber(Psnr(specular, texels)) + ", \"displacement_db\": " + JsonNumber(Psnr(displacement, texels)) + "}";
+  }
+};
+
+// One person of the database: meshes (V x 3, cm) and skin maps (n x 5).
+struct TexturedPerson {
+  rig::Vertices neutral;
+  std::vector<rig::Vertices> scans;        // K captured expressions (with capture noise)
+  std::vector<rig::Vertices> clean;        // K noise-free expressions (truth)
+  std::vector<rig::Vertices> shapes;       // N true blendshapes at weight 1
+  Eigen::MatrixXf weights;                 // K x N true weights
+  std::vector<float> neutral_maps;         // n x 5
+  std::vector<std::vector<float>> expression_maps, shape_offsets;  // K and N of n x 5
+};
+
+TexturedPerson ReadTexturedPerson(const io::H5File& f, int j, int V, int K, int N, size_t texture_floats) {
+  TexturedPerson p;
+  auto mesh = [&](const float* d) { return rig::Vertices(Eigen::Map<const rig::Vertices>(d, V, 3)); };
+  std::vector<float> buf(3 * static_cast<size_t>(V));
+  f.ReadFrames<float>("/scans/people/neutral", j, 1, buf.data());
+  p.neutral = mesh(buf.data());
+  std::vector<float> e(3 * static_cast<size_t>(V) * K), d(3 * static_cast<size_t>(V) * N);
+  f.ReadFrames<float>("/scans/people/expressions", j, 1, e.data());
+  f.ReadFrames<float>("/scans/truth/deltas", j, 1, d.data());
+  std::vector<float> w(static_cast<size_t>(K) * N);
+  f.ReadFrames<float>("/scans/truth/weights", j, 1, w.data());
+  p.weights = Eigen::Map<Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(w.data(), K, N);
+  for (int i = 0; i < N; ++i) p.shapes.push_back(p.neutral + mesh(&d[3 * static_cast<size_t>(V) * i]));
+  for (int k = 0; k < K; ++k) {
+    p.scans.push_back(mesh(&e[3 * static_cast<size_t>(V) * k]));
+    rig::Vertices c = p.neutral;
+    for (int i = 0; i < N; ++i) {
+      if (p.weights(k, i) != 0.f) c += p.weights(k, i) * mesh(&d[3 * static_cast<size_t>(V) * i]);
+    }
+    p.clean.push_back(c);
+  }
+  p.neutral_maps.resize(texture_floats);
+  f.ReadFrames<float>("/scans/textures/neutral", j, 1, p.neutral_maps.data());
+  std::vector<float> offsets(texture_floats * K), shape_offsets(texture_floats * N);
+  f.ReadFrames<float>("/scans/textures/offsets", j, 1, offsets.data());
+  f.ReadFrames<float>("/scans/truth/shape_offsets", j, 1, shape_offsets.data());
+  for (int k = 0; k < K; ++k) {
+    std::vector<float> t(offsets.begin() + k * texture_floats, offsets.begin() + (k + 1) * texture_floats);
+    for (size_t i = 0; i < texture_floats; ++i) t[i] += p.neutral_maps[i];
+    p.expression_maps.push_back(std::move(t));
+  }
+  for (int i = 0; i < N; ++i) {
+    p.shape_offsets.emplace_back(shape_offsets.begin() + i * texture_floats, shape_offsets.begin() + (i + 1) * texture_floats);
+  }
+  return p;
+}
+
+std::vector<const float*> Pointers(const std::vector<std::vector<float>>& v) {
+  std::vector<const float*> out;
+  for (const auto& x : v) out.push_back(x.data());
+  return out;
+}
+
+void RunEvalTextures(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<EvalTexturesOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  const io::H5File f = io::H5File::OpenRead(o.scans);
+  if (!f.Exists("/scans/textures/neutral") || !f.Exists("/scans/truth/shape_offsets")) {
+    throw FileIOError(o.scans + ": no skin maps (/scans/textures, /scans/truth/shape_offsets); make it with "
+                      "scans synth and texture_size > 0");
+  }
+  const rig::Rig topology = io::ReadRigFile(o.scans, "/template");
+  const auto tshape = f.DatasetShape("/scans/textures/neutral");
+  const auto dshape = f.DatasetShape("/scans/truth/deltas");
+  const auto eshape = f.DatasetShape("/scans/people/expressions");
+  if (tshape.size() != 4 || tshape[3] != synth::kSkinChannels || tshape[1] != tshape[2] || dshape.size() != 4 ||
+      eshape.size() != 4) {
+    throw FileIOError(o.scans + ": skin maps or meshes of an unexpected shape");
+  }
+  const int P = static_cast<int>(tshape[0]), S = static_cast<int>(tshape[1]);
+  const int N = static_cast<int>(dshape[1]), K = static_cast<int>(eshape[1]), V = topology.NumVertices();
+  const size_t n = static_cast<size_t>(S) * S, texture_floats = n * synth::kSkinChannels;
+  const std::vector<int32_t> split = f.ReadVector<int32_t>("/scans/people/split", P);
+  const textures::TexelInterpolator texels(topology, S);
+  const textures::OneRing ring = textures::BuildOneRing(topology.triangles, V);
+  const float b = o.sharpness;
+  // Methods: the static neutral; eq. 14 with a library from the other K - 1 expressions
+  // (leave one out) and from all K; per-blendshape maps blended linearly by the weights.
+  LayerErrors stat, dynamic, in_sample, per_shape;
+  int people = 0;
+  for (int j = 0; j < P; ++j) {
+    if (split[j] != 1) continue;
+    ++people;
+    const TexturedPerson p = ReadTexturedPerson(f, j, V, K, N, texture_floats);
+    const Eigen::VectorXf en = textures::MeanEdgeLength(ring, p.neutral);
+    auto influence = [&](const rig::Vertices& mesh) {
+      return textures::InfluenceMap(texels, textures::InfluenceValues(en, textures::MeanEdgeLength(ring, mesh)));
+    };
+    std::vector<std::vector<float>> scan_influence, shape_influence;
+    for (const auto& m : p.scans) scan_influence.push_back(influence(m));
+    for (const auto& m : p.shapes) shape_influence.push_back(influence(m));
+    const auto all = textures::ExtractCompressStretch(Pointers(scan_influence), Pointers(p.expression_maps), n,
+                                                      synth::kSkinChannels, b);
+    const textures::DynamicTexture dyn_all(n, synth::kSkinChannels, p.neutral_maps, all, Pointers(shape_influence), b);
+    for (int k = 0; k < K; ++k) {
+      std::vector<std::vector<float>> others_influence, others_maps;
+      for (int i = 0; i < K; ++i) {
+        if (i == k) continue;
+        others_influence.push_back(scan_influence[i]);
+        others_maps.push_back(p.expression_maps[i]);
+      }
+      const auto loo = textures::ExtractCompressStretch(Pointers(others_influence), Pointers(others_maps), n,
+                                                        synth::kSkinChannels, b);
+      const textures::DynamicTexture dyn(n, synth::kSkinChannels, p.neutral_maps, loo, Pointers(shape_influence), b);
+      const std::vector<float> w(p.weights.row(k).data(), p.weights.row(k).data() + N);
+      std::vector<float> alpha(N);
+      for (int i = 0; i < N; ++i) alpha[i] = p.weights(k, i);
+      const std::vector<float> est = dyn.Evaluate(alpha), est_all = dyn_all.Evaluate(alpha);
+      std::vector<float> linear = p.neutral_maps;
+      for (int i = 0; i < N; ++i) {
+        if (alpha[i] == 0.f) continue;
+        for (size_t t = 0; t < texture_floats; ++t) linear[t] += alpha[i] * p.shape_offsets[i][t];
+      }
+      const std::vector<float> region = influence(p.clean[k]);
+      const float* truth = p.expression_maps[k].data();
+      for (size_t t = 0; t < n; ++t) {
+        if (!texels.Covered(static_cast<int>(t)) || region[2 * t] + region[2 * t + 1] <= 0.f) continue;
+        const size_t at = t * synth::kSkinChannels;
+        stat.Add(truth + at, p.neutral_maps.data() + at);
+        dynamic.Add(truth + at, est.data() + at);
+        in_sample.Add(truth + at, est_all.data() + at);
+        per_shape.Add(truth + at, linear.data() + at);
+      }
+    }
+    FC_INFO("eval textures: person {} of {} held out", people, P);
+  }
+  if (people == 0) throw FileIOError(o.scans + ": no held-out people");
+  // Storage of the dynamic part: T_C and T_S with the blendshapes' per-vertex influences,
+  // against one map per blendshape; the neutral map is needed by both.
+  auto library_bytes = [&](double texels_n) {
+    return 2.0 * texels_n * synth::kSkinChannels * 4 + 2.0 * N * V * 4;
+  };
+  auto per_shape_bytes = [&](double texels_n) { return static_cast<double>(N) * texels_n * synth::kSkinChannels * 4; };
+  const double n1k = 1024.0 * 1024.0;
+  std::ostringstream js;
+  js << "{\"static_neutral\": " << stat.Json() << ", \"dynamic\": " << dynamic.Json()
+     << ", \"dynamic_in_sample\": " << in_sample.Json() << ", \"per_blendshape_maps\": " << per_shape.Json()
+     << ", \"library_size_ratio\": " << JsonNumber(per_shape_bytes(static_cast<double>(n)) / library_bytes(static_cast<double>(n)))
+     << ", \"library_size_ratio_1024\": " << JsonNumber(per_shape_bytes(n1k) / library_bytes(n1k))
+     << ", \"library_mb\": " << JsonNumber(library_bytes(static_cast<double>(n)) / 1e6)
+     << ", \"per_blendshape_maps_mb\": " << JsonNumber(per_shape_bytes(static_cast<double>(n)) / 1e6)
+     << ", \"sharpness\": " << JsonNumber(b) << ", \"people\": " << people << ", \"expressions\": " << K
+     << ", \"blendshapes\": " << N << ", \"texture_size\": " << S << ", \"texels\": " << dynamic.texels
+     << ", \"region\": \"texels where the scored expression's true influence (eq. 10-11 on its noise-free "
+        "mesh) is non-zero\", \"peaks\": \"albedo and specular 1, displacement 1 mm\""
+     << ", \"dynamic_library\": \"eq. 12-13 from the other expressions' scans and true textures (leave one "
+        "out), eq. 14 with the true blendshapes' influences and the true weights\"}";
+  if (o.json) {
+    std::cout << js.str() << std::endl;
+  } else {
+    auto row = [](const char* name, const LayerErrors& e) {
+      std::printf("  %-30s %6.2f %6.2f %6.2f\n", name, LayerErrors::Psnr(e.albedo, e.texels),
+                  LayerErrors::Psnr(e.specular, e.texels), LayerErrors::Psnr(e.displacement, e.texels));
+    };
+    std::printf("PSNR (dB) against the true expression textures, %d held-out people x %d expressions, "
+                "where the expression moves the skin:\n  %-30s %6s %6s %6s\n",
+                people, K, "", "albedo", "spec", "disp");
+    row("static neutral", stat);
+    row("dynamic (eq. 14, leave one out)", dynamic);
+    row("dynamic (all expressions)", in_sample);
+    row("per-blendshape maps", per_shape);
+    std::printf("library %.2f MB against %.2f MB of per-blendshape maps (%.1fx; %.1fx at 1024^2)\n",
+                library_bytes(static_cast<double>(n)) / 1e6, per_shape_bytes(static_cast<double>(n)) / 1e6,
+                per_shape_bytes(static_cast<double>(n)) / library_bytes(static_cast<double>(n)),
+                per_shape_bytes(n1k) / library_bytes(n1k));
+  }
+  if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
+}
+
+}  // namespace
+
+void RegisterTextures(CLI::App* app, AppState* state) {
+  AddStage<EvalTexturesOptions>(
+      EvalSubcommand(app), state, "textures", "eval.textures", "eval textures",
+      "Dynamic textures (paper 001 eq. 10-14) on the held-out people of a textured scan database: PSNR "
+      "of albedo, specular and displacement against the true expression textures where the "
+      "expression moves the skin, beside the static neutral texture and per-blendshape maps, and "
+      "the library's size against theirs; one JSON object",
+      PathKeys{{"scans"}, {{"out", OutputKind::kText}}},
+      RunEvalTextures);
+}
+
+}  // namespace facecap::stages
