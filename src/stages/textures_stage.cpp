@@ -24,6 +24,7 @@ struct EvalTexturesOptions {
   float sharpness = 100.f;         // b of eq. 12, per cm
   bool json = true;                // print one JSON object (else a table)
   std::string out = "";            // also write the JSON to this file
+  std::string maps = "";           // the first held-out person's maps (HDF5)
 
   template <class V>
   void Visit(V&& v) {
@@ -32,6 +33,12 @@ struct EvalTexturesOptions {
                               "change (the paper's equation: 1)");
     v("json", json, "print one JSON object (false: a readable table)");
     v("out", out, "also write the JSON object to this file (empty: none)");
+    v("maps", maps, "HDF5 file for the first held-out person's maps: the library (/library/neutral, "
+                    "compress, stretch [S, S, 5]; /library/shape_influence [N, V, 2]), the expressions' "
+                    "influences (/influence/vertex [K, V, 2], /influence/texel [K, S, S, 2]; R compress, "
+                    "G stretch) and textures (/textures/truth; /textures/dynamic, eq. 14 with the library of the other "
+                    "expressions; /textures/per_blendshape [K, S, S, 5]) "
+                    "(empty: none)");
   }
   bool Check(std::string* why) const {
     if (scans.empty()) { *why = "scans must name a file"; return false; }
@@ -115,6 +122,49 @@ std::vector<const float*> Pointers(const std::vector<std::vector<float>>& v) {
   return out;
 }
 
+// Per-vertex influences as [count, V, 2] (compress, stretch).
+std::vector<float> VertexInfluenceArray(const std::vector<textures::VertexInfluence>& influence) {
+  std::vector<float> out;
+  for (const auto& v : influence) {
+    for (int x = 0; x < v.compress.size(); ++x) {
+      out.push_back(v.compress[x]);
+      out.push_back(v.stretch[x]);
+    }
+  }
+  return out;
+}
+
+void WritePersonMaps(const StageContext& ctx, const io::Config& resolved, const std::string& path, int person, int S,
+                     const TexturedPerson& p, const textures::CompressStretchMaps& library,
+                     const std::vector<textures::VertexInfluence>& scan_vertex,
+                     const std::vector<std::vector<float>>& scan_texel,
+                     const std::vector<textures::VertexInfluence>& shape_vertex, const std::vector<float>& dynamic,
+                     const std::vector<float>& linear, float sharpness) {
+  const int64_t K = static_cast<int64_t>(scan_vertex.size()), N = static_cast<int64_t>(shape_vertex.size());
+  const int64_t V = p.neutral.rows(), C = synth::kSkinChannels;
+  io::H5File f = io::H5File::CreateAtomic(path);
+  f.WriteProvenance(MakeProvenance(ctx, "eval textures", resolved));
+  f.Write<float>("/library/neutral", {S, S, C}, p.neutral_maps.data());
+  f.Write<float>("/library/compress", {S, S, C}, library.compress.data());
+  f.Write<float>("/library/stretch", {S, S, C}, library.stretch.data());
+  f.Write<float>("/library/shape_influence", {N, V, 2}, VertexInfluenceArray(shape_vertex).data());
+  f.SetAttribute("/library/compress", "sharpness_per_cm", static_cast<double>(sharpness));
+  f.SetAttribute("/library/compress", "person", static_cast<int64_t>(person));
+  f.Write<float>("/influence/vertex", {K, V, 2}, VertexInfluenceArray(scan_vertex).data());
+  std::vector<float> texel;
+  for (const auto& m : scan_texel) texel.insert(texel.end(), m.begin(), m.end());
+  f.Write<float>("/influence/texel", {K, S, S, 2}, texel.data());
+  std::vector<float> truth;
+  for (const auto& m : p.expression_maps) truth.insert(truth.end(), m.begin(), m.end());
+  f.Write<float>("/textures/truth", {K, S, S, C}, truth.data());
+  f.Write<float>("/textures/dynamic", {K, S, S, C}, dynamic.data());
+  f.Write<float>("/textures/per_blendshape", {K, S, S, C}, linear.data());
+  for (const char* name : {"/library/neutral", "/textures/truth", "/textures/dynamic"}) {
+    f.SetAttribute(name, "channels", std::string("albedo_r albedo_g albedo_b specular displacement_mm"));
+  }
+  f.Commit();
+}
+
 void RunEvalTextures(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -149,12 +199,22 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
     ++people;
     const TexturedPerson p = ReadTexturedPerson(f, j, V, K, N, texture_floats);
     const Eigen::VectorXf en = textures::MeanEdgeLength(ring, p.neutral);
-    auto influence = [&](const rig::Vertices& mesh) {
-      return textures::InfluenceMap(texels, textures::InfluenceValues(en, textures::MeanEdgeLength(ring, mesh)));
+    auto vertex_influence = [&](const rig::Vertices& mesh) {
+      return textures::InfluenceValues(en, textures::MeanEdgeLength(ring, mesh));
     };
+    auto influence = [&](const rig::Vertices& mesh) { return textures::InfluenceMap(texels, vertex_influence(mesh)); };
+    std::vector<textures::VertexInfluence> scan_vertex, shape_vertex;
     std::vector<std::vector<float>> scan_influence, shape_influence;
-    for (const auto& m : p.scans) scan_influence.push_back(influence(m));
-    for (const auto& m : p.shapes) shape_influence.push_back(influence(m));
+    for (const auto& m : p.scans) {
+      scan_vertex.push_back(vertex_influence(m));
+      scan_influence.push_back(textures::InfluenceMap(texels, scan_vertex.back()));
+    }
+    for (const auto& m : p.shapes) {
+      shape_vertex.push_back(vertex_influence(m));
+      shape_influence.push_back(textures::InfluenceMap(texels, shape_vertex.back()));
+    }
+    const bool keep = !o.maps.empty() && people == 1;
+    std::vector<float> kept_dynamic, kept_linear;
     const auto all = textures::ExtractCompressStretch(Pointers(scan_influence), Pointers(p.expression_maps), n,
                                                       synth::kSkinChannels, b);
     const textures::DynamicTexture dyn_all(n, synth::kSkinChannels, p.neutral_maps, all, Pointers(shape_influence), b);
@@ -177,6 +237,10 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
         if (alpha[i] == 0.f) continue;
         for (size_t t = 0; t < texture_floats; ++t) linear[t] += alpha[i] * p.shape_offsets[i][t];
       }
+      if (keep) {
+        kept_dynamic.insert(kept_dynamic.end(), est.begin(), est.end());
+        kept_linear.insert(kept_linear.end(), linear.begin(), linear.end());
+      }
       const std::vector<float> region = influence(p.clean[k]);
       const float* truth = p.expression_maps[k].data();
       for (size_t t = 0; t < n; ++t) {
@@ -187,6 +251,10 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
         in_sample.Add(truth + at, est_all.data() + at);
         per_shape.Add(truth + at, linear.data() + at);
       }
+    }
+    if (keep) {
+      WritePersonMaps(ctx, resolved, o.maps, j, S, p, all, scan_vertex, scan_influence, shape_vertex, kept_dynamic,
+                      kept_linear, b);
     }
     FC_INFO("eval textures: person {} of {} held out", people, P);
   }
@@ -242,7 +310,7 @@ void RegisterTextures(CLI::App* app, AppState* state) {
       "of albedo, specular and displacement against the true expression textures where the "
       "expression moves the skin, beside the static neutral texture and per-blendshape maps, and "
       "the library's size against theirs; one JSON object",
-      PathKeys{{"scans"}, {{"out", OutputKind::kText}}},
+      PathKeys{{"scans"}, {{"out", OutputKind::kText}, {"maps", OutputKind::kHdf5}}},
       RunEvalTextures);
 }
 

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Dynamic textures (paper 001 Sec. 5, eq. 10-14) in one command: the textured scan database
+# (60 people, 12 held out), `eval textures` on the held-out people at several sharpnesses of
+# eq. 12's softmax (1 is the paper's equation with influences in cm), eq. 10-13 checked
+# against a direct numpy implementation, a contact sheet, and the runtime of eq. 14 at
+# 1024 x 1024 on one core beside the dense formula and per-blendshape maps.
+#
+#   analysis/dynamic_textures.sh [BUILD_DIR]
+#
+# Environment: WORK (out/dynamic_textures), RANKS (2). Takes about 3 minutes on 2 cores.
+source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
+take_build_dir "$@"
+build_targets facecap facecap_bench_dynamic_texture
+require_facecap
+work="$(mkdir -p "${WORK:-out/dynamic_textures}" && cd "${WORK:-out/dynamic_textures}" && pwd)"
+ranks="${RANKS:-2}"
+log() { echo "[dynamic_textures] $*" >&2; }
+
+log "scans synth (textured) -> ${work}/scans.h5"
+"${mpirun_cmd[@]}" -n "${ranks}" "${facecap}" scans synth --out "${work}/scans.h5" --people 60 --test-people 12
+for b in 1 30 100 300; do
+  log "eval textures, sharpness ${b}"
+  maps=()
+  [[ "${b}" == 100 ]] && maps=(--maps "${work}/maps.h5")
+  "${facecap}" eval textures --scans "${work}/scans.h5" --sharpness "${b}" --out "${work}/eval_b${b}.json" \
+    "${maps[@]}" > /dev/null
+done
+/usr/bin/python3 "${source_dir}/analysis/dynamic_textures.py" "${work}/scans.h5" "${work}/maps.h5" \
+  --sheet "${work}/sheet.png"
+log "eq. 14 at 1024 x 1024, one core"
+"${build_dir}/facecap_bench_dynamic_texture" --size 1024 --frames 10 | tee "${work}/bench_all.txt"
+"${build_dir}/facecap_bench_dynamic_texture" --size 1024 --frames 10 --active 12 | tee "${work}/bench_12.txt"
+/usr/bin/python3 - "${work}" <<'PY'
+import json, sys
+work = sys.argv[1]
+print("\nPSNR (dB) against the true expression textures where the expression moves the skin "
+      "(held-out people; albedo / specular / displacement):\n")
+print("| sharpness b (per cm) | static neutral | dynamic, eq. 14 (leave one out) | per-blendshape maps |")
+print("| --- | --- | --- | --- |")
+for b in (1, 30, 100, 300):
+    d = json.load(open(f"{work}/eval_b{b}.json"))
+    cell = lambda k: " / ".join(f"{d[k][x]:.2f}" for x in ("albedo_db", "specular_db", "displacement_db"))
+    print(f"| {b} | {cell('static_neutral')} | {cell('dynamic')} | {cell('per_blendshape_maps')} |")
+print(f"\nlibrary {d['library_mb']:.2f} MB against {d['per_blendshape_maps_mb']:.2f} MB of per-blendshape maps "
+      f"at {d['texture_size']}^2 ({d['library_size_ratio']:.1f}x; {d['library_size_ratio_1024']:.1f}x at 1024^2); "
+      f"{d['people']} people, {d['expressions']} expressions, {d['blendshapes']} blendshapes")
+PY
