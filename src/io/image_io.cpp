@@ -1,6 +1,7 @@
 #include "io/image_io.h"
 
 #include <filesystem>
+#include <type_traits>
 #include <vector>
 
 #include <OpenImageIO/filesystem.h>
@@ -65,8 +66,14 @@ std::string EncodePng(const Image8& image) {
   return std::string(bytes.begin(), bytes.end());
 }
 
-Image8 ReadImage8(const std::string& path, int channels) {
-  if (channels != 1 && channels != 3) throw InvalidInputError("ReadImage8: channels must be 1 or 3");
+namespace {
+
+// Reads every channel of the image at `path` as `type` into raw (width x height x the file's
+// channels), then keeps `channels` of them: grayscale is replicated to 3, RGB reduces to 1 by
+// luma, alpha is dropped.
+template <typename T>
+Image<T> ReadImageAs(const std::string& path, int channels, OIIO::TypeDesc type, bool* is_float) {
+  if (channels != 1 && channels != 3) throw InvalidInputError("image read: channels must be 1 or 3");
   if (!std::filesystem::is_regular_file(path)) throw FileIOError(path + ": no such image file");
   auto in = OIIO::ImageInput::open(path);
   if (!in) throw FileIOError(path + ": cannot read as an image: " + OIIO::geterror());
@@ -78,26 +85,41 @@ Image8 ReadImage8(const std::string& path, int channels) {
     throw FileIOError(path + ": image of " + std::to_string(spec.width) + "x" +
                       std::to_string(spec.height) + " pixels is too large");
   }
-  Image8 raw(spec.width, spec.height, spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, raw.data.data())) {
+  if (is_float) *is_float = spec.format.is_floating_point();
+  Image<T> raw(spec.width, spec.height, spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, type, raw.data.data())) {
     throw FileIOError(path + ": cannot decode image: " + in->geterror());
   }
   in->close();
-  Image8 out(spec.width, spec.height, channels);
+  Image<T> out(spec.width, spec.height, channels);
   for (int y = 0; y < spec.height; ++y) {
     for (int x = 0; x < spec.width; ++x) {
-      const uint8_t* p = raw.pixel(x, y);
-      uint8_t* q = out.pixel(x, y);
+      const T* p = raw.pixel(x, y);
+      T* q = out.pixel(x, y);
       if (channels == 1) {
-        q[0] = spec.nchannels >= 3
-                   ? static_cast<uint8_t>((77 * p[0] + 150 * p[1] + 29 * p[2]) >> 8)
-                   : p[0];
+        if (spec.nchannels < 3) {
+          q[0] = p[0];
+        } else if constexpr (std::is_same_v<T, uint8_t>) {
+          q[0] = static_cast<uint8_t>((77 * p[0] + 150 * p[1] + 29 * p[2]) >> 8);
+        } else {
+          q[0] = 0.299f * p[0] + 0.587f * p[1] + 0.114f * p[2];
+        }
       } else {
         for (int c = 0; c < 3; ++c) q[c] = p[spec.nchannels >= 3 ? c : 0];
       }
     }
   }
   return out;
+}
+
+}  // namespace
+
+Image8 ReadImage8(const std::string& path, int channels) {
+  return ReadImageAs<uint8_t>(path, channels, OIIO::TypeDesc::UINT8, nullptr);
+}
+
+ImageF ReadImageF(const std::string& path, int channels, bool* is_float) {
+  return ReadImageAs<float>(path, channels, OIIO::TypeDesc::FLOAT, is_float);
 }
 
 }  // namespace facecap::io

@@ -30,6 +30,8 @@ Eigen::Vector3f SamplePixelsBilinear(const ImageF& image, float px, float py) {
   return result;
 }
 
+}  // namespace
+
 // sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1].
 float EncodeSrgb(float linear) {
   return linear <= 0.0031308f ? 12.92f * linear
@@ -41,7 +43,6 @@ float DecodeSrgb(float encoded) {
   return encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
 }
 
-}  // namespace
 
 bool ShadingOptions::Check(std::string* why) const {
   auto fail = [why](const std::string& reason) {

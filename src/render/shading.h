@@ -140,6 +140,10 @@ void LinearToImage8(const ImageF& linear, bool encode_srgb, Image8* image);
 //   linear       same shape, float
 void Image8ToLinear(const Image8& image, bool decode_srgb, ImageF* linear);
 
+// The sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1], and its inverse.
+float EncodeSrgb(float linear);
+float DecodeSrgb(float encoded);
+
 }  // namespace facecap::render
 
 #endif  // FACECAP_RENDER_SHADING_H_

@@ -19,6 +19,8 @@
 //     (1/cm), flush, blanch: the person's skin dynamics   (synthetic with textures only)
 //   /scans/truth/shape_offsets [P, N, S, S, 5] each true blendshape's maps at weight 1 minus
 //     the neutral's   (synthetic with textures only)
+// scans import writes /scans/textures from the maps beside each mesh (attribute
+// imported_layers: the layers found beside the first neutral; the others are 0).
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -28,8 +30,10 @@
 #include "assets/geometry_image.h"
 #include "assets/scan_database.h"
 #include "assets/template_shapes.h"
+#include "io/image_io.h"
 #include "io/mesh_io.h"
 #include "io/rig_io.h"
+#include "render/shading.h"
 #include "rig/demo_head.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
@@ -87,6 +91,8 @@ struct ScansImportOptions {
   std::string template_rig = "template.h5";  // rig file whose shapes are the template S_i
   std::vector<std::string> facs = assets::DefaultFacsTable();  // FACS table of the expressions
   std::string out = "scans.h5";       // output scan database
+  int texture_size = 256;             // skin maps resampled to this size (0: meshes only)
+  float displacement_scale_mm = 1.f;  // mm per unit of the displacement maps
 
   template <class V>
   void Visit(V&& v) {
@@ -95,6 +101,11 @@ struct ScansImportOptions {
     v("template_rig", template_rig, "rig file (HDF5) whose shapes are the template blendshapes");
     v("facs", facs, "FACS table: one 'name=shapeA+shapeB' entry per expression");
     v("out", out, "output scan database (HDF5)");
+    v("texture_size", texture_size, "skin maps found beside the meshes (MESH_albedo, MESH_specular, MESH_displacement "
+                                    "with extension exr, tif, tiff, png or jpg, in the template's UV layout; albedo in sRGB unless float, "
+                                    "specular and displacement from their first channel, displacement as floats) are "
+                                    "resampled to this width and height, [32, 4096]; 0 imports meshes only");
+    v("displacement_scale_mm", displacement_scale_mm, "millimetres per unit of the displacement maps (float EXR or TIFF)");
   }
   bool Check(std::string* why) const {
     if (labels.empty() || template_rig.empty() || out.empty()) {
@@ -102,6 +113,14 @@ struct ScansImportOptions {
       return false;
     }
     if (facs.empty()) { *why = "the FACS table is empty"; return false; }
+    if (texture_size != 0 && (texture_size < 32 || texture_size > 4096)) {
+      *why = "texture_size must be 0 or in [32, 4096]";
+      return false;
+    }
+    if (!(displacement_scale_mm > 0.f && displacement_scale_mm < 1e4f)) {
+      *why = "displacement_scale_mm must be in (0, 1e4)";
+      return false;
+    }
     return true;
   }
 };
@@ -284,6 +303,71 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
   });
 }
 
+// The map of `layer` beside mesh file `mesh` (MESH_layer.ext), or "" when there is none.
+std::string MapBeside(const std::string& mesh, const std::string& layer) {
+  const std::filesystem::path p(mesh);
+  for (const char* ext : {".exr", ".tif", ".tiff", ".png", ".jpg"}) {
+    const std::filesystem::path candidate = p.parent_path() / (p.stem().string() + "_" + layer + ext);
+    if (std::filesystem::is_regular_file(candidate)) return candidate.string();
+  }
+  return "";
+}
+
+// Which skin map layers a database imports: those beside the first neutral.
+struct MapLayers {
+  bool albedo = false, specular = false, displacement = false;
+  bool any() const { return albedo || specular || displacement; }
+  std::string Names() const {
+    std::string out;
+    for (auto [on, name] : {std::pair{albedo, "albedo"}, {specular, "specular"}, {displacement, "displacement"}}) {
+      if (on) out += (out.empty() ? "" : " ") + std::string(name);
+    }
+    return out;
+  }
+};
+
+// The skin maps beside `mesh` as S x S x 5 (albedo linear RGB, specular, displacement mm),
+// each resampled bilinearly; a layer the database does not import is 0.
+std::vector<float> ReadSkinMaps(const std::string& mesh, const MapLayers& layers, int S, float displacement_scale) {
+  std::vector<float> maps(static_cast<size_t>(S) * S * synth::kSkinChannels, 0.f);
+  // Read as 3 channels (a grey map replicated; specular and displacement use the first).
+  auto read = [&](const std::string& layer, bool* is_float) {
+    const std::string path = MapBeside(mesh, layer);
+    if (path.empty()) {
+      throw FileIOError(mesh + ": no " + layer + " map beside it (" + std::filesystem::path(mesh).stem().string() +
+                        "_" + layer + ".exr, .tif, .png or .jpg), which the first neutral has");
+    }
+    const ImageF image = io::ReadImageF(path, 3, is_float);
+    if (image.width != image.height) {
+      throw FileIOError(path + ": skin maps must be square, this one is " + std::to_string(image.width) + "x" +
+                        std::to_string(image.height));
+    }
+    return render::ResampleBilinear(image, S, S);
+  };
+  const size_t n = static_cast<size_t>(S) * S;
+  bool is_float = false;
+  if (layers.albedo) {
+    const ImageF a = read("albedo", &is_float);
+    for (size_t t = 0; t < n; ++t) {
+      for (int c = 0; c < 3; ++c) {
+        const float v = a.data[3 * t + c];
+        maps[t * synth::kSkinChannels + c] = is_float ? v : render::DecodeSrgb(v);
+      }
+    }
+  }
+  if (layers.specular) {
+    const ImageF sp = read("specular", &is_float);
+    for (size_t t = 0; t < n; ++t) maps[t * synth::kSkinChannels + 3] = sp.data[3 * t];
+  }
+  if (layers.displacement) {
+    const std::string path = MapBeside(mesh, "displacement");
+    const ImageF d = read("displacement", &is_float);
+    if (!is_float) throw FileIOError(path + ": displacement maps must hold floats (EXR or float TIFF)");
+    for (size_t t = 0; t < n; ++t) maps[t * synth::kSkinChannels + 4] = displacement_scale * d.data[3 * t];
+  }
+  return maps;
+}
+
 void RunScansImport(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -327,10 +411,26 @@ void RunScansImport(const StageFlags& flags, AppState* state) {
     }
     const int V = tmpl.NumVertices(), K = static_cast<int>(table.size()), P = static_cast<int>(order.size());
     if (P == 0) throw FileIOError(o.labels + ": no people");
+    MapLayers layers;
+    if (o.texture_size > 0 && !people[order[0]].neutral.empty()) {
+      const std::string first = people[order[0]].neutral;
+      layers = {!MapBeside(first, "albedo").empty(), !MapBeside(first, "specular").empty(),
+                !MapBeside(first, "displacement").empty()};
+    }
+    const int S = layers.any() ? o.texture_size : 0;
     ResumableOutput output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "scans import", resolved));
     if (output.up_to_date) return;
     io::H5File& f = output.file;
     WriteDatabaseHeader(&f, tmpl, topology, table, alpha, P);
+    if (S > 0) {
+      f.CreateFrames<float>("/scans/textures/neutral", {S, S, synth::kSkinChannels}, P, 1);
+      f.CreateFrames<float>("/scans/textures/offsets", {K, S, S, synth::kSkinChannels}, P, 1);
+      for (const char* name : {"/scans/textures/neutral", "/scans/textures/offsets"}) {
+        f.SetAttribute(name, "channels", std::string("albedo_r albedo_g albedo_b specular displacement_mm"));
+        f.SetAttribute(name, "layout", std::string("the template's UV layout, row 0 at v = 1 (OBJ convention)"));
+        f.SetAttribute(name, "imported_layers", layers.Names());
+      }
+    }
     std::vector<int32_t> split;
     auto read = [&](const std::string& path) {
       const io::Mesh mesh = io::ReadMeshObj(path);
@@ -350,12 +450,26 @@ void RunScansImport(const StageFlags& flags, AppState* state) {
         expressions.insert(expressions.end(), e.data(), e.data() + e.size());
       }
       f.WriteFrames<float>("/scans/people/expressions", j, 1, expressions.data());
+      if (S > 0) {
+        const std::vector<float> neutral_maps = ReadSkinMaps(p.neutral, layers, S, o.displacement_scale_mm);
+        f.WriteFrames<float>("/scans/textures/neutral", j, 1, neutral_maps.data());
+        std::vector<float> offsets;
+        for (int k = 0; k < K; ++k) {
+          const std::vector<float> e = ReadSkinMaps(p.files.at(k), layers, S, o.displacement_scale_mm);
+          for (size_t i = 0; i < e.size(); ++i) offsets.push_back(e[i] - neutral_maps[i]);
+        }
+        f.WriteFrames<float>("/scans/textures/offsets", j, 1, offsets.data());
+      }
       split.push_back(p.split);
     }
     f.WriteVector<int32_t>("/scans/people/split", split);
     f.WriteStrings("/scans/people/names", order);
     f.Commit();
-    FC_INFO("scans import: {} people x {} expressions -> {}", P, K, o.out);
+    if (S > 0) {
+      FC_INFO("scans import: {} people x {} expressions, skin maps ({}) at {}x{} -> {}", P, K, layers.Names(), S, S, o.out);
+    } else {
+      FC_INFO("scans import: {} people x {} expressions -> {}", P, K, o.out);
+    }
   });
 }
 

@@ -4,11 +4,17 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "io/hdf5.h"
+#include "io/image_io.h"
+#include "io/mesh_io.h"
+#include "io/rig_io.h"
+#include "render/shading.h"
 #include "testing/testing.h"
 
 namespace facecap::stages {
@@ -104,6 +110,83 @@ TEST_F(TexturedScans, DynamicTexturesBeatTheStaticNeutralOnAHeldOutPerson) {
   auto bad = RunFacecap("eval textures --scans " + dir_->File("plain.h5"));
   EXPECT_NE(bad.code, 0);
   EXPECT_NE(bad.output.find("no skin maps"), std::string::npos) << bad.output;
+}
+
+// Person 0's neutral and smile written as OBJ meshes with their skin maps beside them (the
+// neutral's albedo as an sRGB PNG, the smile's as a linear EXR, specular as 8-bit PNGs,
+// displacement as EXRs in cm) come back through scans import as the database held them.
+TEST_F(TexturedScans, ImportReadsTheSkinMapsBesideTheMeshes) {
+  const io::H5File db = io::H5File::OpenRead(Scans());
+  const rig::Rig tmpl = io::ReadRig(db, "/template");
+  const int V = tmpl.NumVertices(), S = 64, C = 5;
+  const std::vector<std::string> names = db.ReadStrings("/scans/facs/names");
+  const int smile = static_cast<int>(std::find(names.begin(), names.end(), "smile") - names.begin());
+  ASSERT_LT(smile, static_cast<int>(names.size()));
+  {
+    io::H5File rig_file = io::H5File::CreateAtomic(dir_->File("template.h5"));
+    io::WriteRig(tmpl, &rig_file);
+    rig_file.Commit();
+  }
+  rig::Vertices neutral(V, 3);
+  db.ReadFrames<float>("/scans/people/neutral", 0, 1, neutral.data());
+  std::vector<float> expressions(static_cast<size_t>(names.size()) * V * 3);
+  db.ReadFrames<float>("/scans/people/expressions", 0, 1, expressions.data());
+  const rig::Vertices smile_mesh = Eigen::Map<const rig::Vertices>(&expressions[static_cast<size_t>(smile) * V * 3], V, 3);
+  std::vector<float> maps(static_cast<size_t>(S) * S * C);
+  db.ReadFrames<float>("/scans/textures/neutral", 0, 1, maps.data());
+  std::vector<float> offsets(names.size() * maps.size());
+  db.ReadFrames<float>("/scans/textures/offsets", 0, 1, offsets.data());
+  std::vector<float> smile_maps = maps;
+  for (size_t i = 0; i < maps.size(); ++i) smile_maps[i] += offsets[smile * maps.size() + i];
+  const std::string folder = dir_->File("import");
+  std::filesystem::create_directories(folder);
+  auto write_maps = [&](const std::string& stem, const std::vector<float>& m, bool srgb_png) {
+    ImageF albedo(S, S, 3), specular(S, S, 1), displacement(S, S, 1);
+    for (int t = 0; t < S * S; ++t) {
+      for (int c = 0; c < 3; ++c) albedo.data[3 * t + c] = srgb_png ? render::EncodeSrgb(m[C * t + c]) : m[C * t + c];
+      specular.data[t] = m[C * t + 3];
+      displacement.data[t] = m[C * t + 4] / 10.f;  // cm
+    }
+    io::WriteImage(folder + "/" + stem + (srgb_png ? "_albedo.png" : "_albedo.exr"), albedo);
+    io::WriteImage(folder + "/" + stem + "_specular.png", specular);
+    io::WriteImage(folder + "/" + stem + "_displacement.exr", displacement);
+  };
+  io::ExportMeshObj(neutral, tmpl.triangles, nullptr, nullptr, folder + "/neutral.obj");
+  io::ExportMeshObj(smile_mesh, tmpl.triangles, nullptr, nullptr, folder + "/smile.obj");
+  write_maps("neutral", maps, true);
+  write_maps("smile", smile_maps, false);
+  std::ofstream(folder + "/labels.csv") << "person,expression,file,split\np0,neutral,neutral.obj,train\n"
+                                           "p0,smile,smile.obj,train\n";
+  const std::string cmd = "scans import --labels " + folder + "/labels.csv --template-rig " + dir_->File("template.h5") +
+                          " --facs smile=mouthSmileLeft+mouthSmileRight --texture-size 64 --displacement-scale-mm 10";
+  auto r = RunFacecap(cmd + " --out " + dir_->File("imported.h5"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const io::H5File imported = io::H5File::OpenRead(dir_->File("imported.h5"));
+  std::vector<float> got_neutral(maps.size()), got_offsets(maps.size());
+  imported.ReadFrames<float>("/scans/textures/neutral", 0, 1, got_neutral.data());
+  imported.ReadFrames<float>("/scans/textures/offsets", 0, 1, got_offsets.data());
+  double worst_albedo_png = 0, worst_specular = 0, worst_exact = 0;
+  for (size_t i = 0; i < maps.size(); ++i) {
+    const int c = static_cast<int>(i % C);
+    const double n_err = std::abs(got_neutral[i] - maps[i]);
+    const double e_err = std::abs(got_neutral[i] + got_offsets[i] - smile_maps[i]);
+    if (c < 3) {
+      worst_albedo_png = std::max(worst_albedo_png, n_err);
+      worst_exact = std::max(worst_exact, e_err);
+    } else if (c == 3) {
+      worst_specular = std::max({worst_specular, n_err, e_err});
+    } else {
+      worst_exact = std::max({worst_exact, n_err, e_err});
+    }
+  }
+  EXPECT_LT(worst_albedo_png, 0.01);   // 8-bit sRGB: steps of under 1% in linear values
+  EXPECT_LT(worst_specular, 0.5 / 255 + 1e-6);
+  EXPECT_LT(worst_exact, 1e-5);        // float EXRs, displacement scaled back to mm
+  // A mesh without the maps that the first neutral has is named.
+  std::filesystem::remove(folder + "/smile_specular.png");
+  auto missing = RunFacecap(cmd + " --out " + dir_->File("imported2.h5"));
+  EXPECT_NE(missing.code, 0);
+  EXPECT_NE(missing.output.find("smile.obj: no specular map"), std::string::npos) << missing.output;
 }
 
 }  // namespace
