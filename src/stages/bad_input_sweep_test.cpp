@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include "io/hdf5.h"
+#include "io/rig_io.h"
 #include "stages/app.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
@@ -85,6 +86,8 @@ const std::map<std::string, StageInputs>& ValidRuns() {
       {"eval.blendshapes",
        {{{"scans", "scans.h5"}, {"baselines", "baselines.h5"}, {"model", "bsgen.h5"}}, "", {}}},
       {"eval.textures", {{{"scans", "scans.h5"}}, "", {}}},
+      {"textures.library", {{{"scans", "scans.h5"}, {"rig", "scans_rig.h5"}}, "", {}}},
+      {"export.textures", {{{"library", "library.h5"}, {"track", "track.h5"}}, "", {}}},
       {"track",
        {{{"rig", "rig.h5"}, {"targets", "samples.h5"}, {"frames", ""}},
         "--targets-dataset /samples/segmentation", {}}},
@@ -173,6 +176,16 @@ class BadInputSweep : public ::testing::Test {
     std::ofstream(dir_->File("garbage.csv")) << "\x01\x02 not a table\n";
     std::ofstream(dir_->File("garbage.png")) << "not an image\n";
     std::ofstream(dir_->File("garbage.dat")) << "not a model\n";
+    {
+      // A rig of the scan database's topology, and a dynamic texture library made with it.
+      io::H5File tmpl = io::H5File::CreateAtomic(dir_->File("scans_rig.h5"));
+      io::WriteRig(io::ReadRig(io::H5File::OpenRead(dir_->File("scans.h5")), "/template"), &tmpl);
+      tmpl.Commit();
+      const testing::CommandResult r = testing::RunCommand(
+          "cd " + Quote(dir_->path()) + " && " + testing::BuildDir() +
+          "/facecap textures library --scans scans.h5 --rig scans_rig.h5 --out library.h5");
+      ASSERT_EQ(r.code, 0) << r.output;
+    }
     {
       io::H5File other = io::H5File::CreateAtomic(dir_->File("other.h5"));
       other.WriteVector<float>("/unrelated", {1.f, 2.f, 3.f});

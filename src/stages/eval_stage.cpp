@@ -843,14 +843,18 @@ void RunEvalRerender(const StageFlags& flags, AppState* state) {
 
 }  // namespace
 
-CLI::App* EvalSubcommand(CLI::App* app) {
+CLI::App* GroupSubcommand(CLI::App* app, const std::string& name, const std::string& description) {
   try {
-    return app->get_subcommand("eval");
+    return app->get_subcommand(name);
   } catch (const CLI::OptionNotFound&) {
-    CLI::App* eval = app->add_subcommand("eval", "Metrics of an output against synthetic truth");
-    eval->require_subcommand(1);
-    return eval;
+    CLI::App* group = app->add_subcommand(name, description);
+    group->require_subcommand(1);
+    return group;
   }
+}
+
+CLI::App* EvalSubcommand(CLI::App* app) {
+  return GroupSubcommand(app, "eval", "Metrics of an output against synthetic truth");
 }
 
 void RegisterEval(CLI::App* app, AppState* state) {

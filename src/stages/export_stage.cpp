@@ -545,7 +545,7 @@ void RunExportLandmarks(const StageFlags& flags, AppState* state) {
 }  // namespace
 
 void RegisterExport(CLI::App* app, AppState* state) {
-  CLI::App* exp = app->add_subcommand("export", "Tracked animation to other tools' formats");
+  CLI::App* exp = GroupSubcommand(app, "export", "Tracked animation to other tools' formats");
   exp->require_subcommand(1);
   AddStage<ExportLiveLinkOptions>(
       exp, state, "livelink", "export.livelink", "export livelink",

@@ -184,7 +184,10 @@ void RegisterAppearance(CLI::App* app, AppState* state);
 // `eval track` (and other metrics) under an `eval` subcommand, made when absent.
 void RegisterEval(CLI::App* app, AppState* state);
 void RegisterTextures(CLI::App* app, AppState* state);
-// The `eval` subcommand, added on first use (several files register evaluations).
+// Subcommand `name` (eval, export) of `app`, added with `description` on first use: several
+// files register subcommands under it.
+CLI::App* GroupSubcommand(CLI::App* app, const std::string& name, const std::string& description);
+// GroupSubcommand(app, "eval", ...).
 CLI::App* EvalSubcommand(CLI::App* app);
 void RegisterRun(CLI::App* app, AppState* state);
 

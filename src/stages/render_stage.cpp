@@ -20,6 +20,7 @@
 #include "rig/evaluate.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
+#include "stages/dynamic_texture_file.h"
 #include "stages/rig_texture.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -47,7 +48,8 @@ struct RenderStageOptions {
   template <class V>
   void Visit(V&& v) {
     v("rig", rig, "rig file (HDF5) from `facecap rig demo` or `facecap rig import`, or a textured rig "
-                  "(appearance gather's output), drawn with its texture");
+                  "(appearance gather's output), drawn with its texture, or a dynamic texture library "
+                  "(textures library), drawn with the texture of its weights (eq. 14)");
     v("out", out, "output image; the extension picks the format (.png, .jpg, .exr, .tif)");
     v("mode", mode, "what to draw: segmentation, shaded, uv or depth");
     v("size", size, "image width and height in pixels");
@@ -176,6 +178,12 @@ class Renderer {
     }
   }
 
+  // Replaces the albedo texture (a dynamic texture at the next pose's weights).
+  void SetTexture(ImageF texture) {
+    texture_ = std::move(texture);
+    shading_.albedo_source = render::AlbedoSource::kTexture;
+  }
+
   void Pose(const Framing& f, const Eigen::VectorXf& weights) {
     camera_ = f.camera;
     evaluator_.EvaluatePosed(f.pose, weights, &posed_);
@@ -256,11 +264,26 @@ void RunRender(const StageFlags& flags, AppState* state) {
   if (!ctx.comm.IsMainRank()) return;
   const rig::Rig rig = io::ReadRigFile(o.rig);
   Renderer renderer(rig, io::ReadRigTexture(o.rig), o.threads);
+  // A dynamic texture library draws each render with eq. 14's albedo at its weights.
+  std::unique_ptr<textures::DynamicTexture> dynamic;
+  int dynamic_size = 0;
+  if (HasDynamicTexture(o.rig)) {
+    const DynamicTextureLibrary library = ReadDynamicTextureLibrary(o.rig, rig);
+    dynamic = MakeDynamicTexture(rig, library);
+    dynamic_size = library.size;
+  }
+  auto pose = [&](const Framing& framing, const Eigen::VectorXf& w) {
+    if (dynamic) {
+      const std::vector<float> maps = dynamic->Evaluate(std::vector<float>(w.data(), w.data() + w.size()));
+      renderer.SetTexture(MapLayer(maps, dynamic_size, 0, 3));
+    }
+    renderer.Pose(framing, w);
+  };
   if (!o.sheet) {
     const Eigen::VectorXf w = ParseWeights(rig, o.weights);
     const Framing framing = FrameHead(rig, o.size, o.fov_deg, o.pitch_deg * kDegToRad,
                                       o.yaw_deg * kDegToRad, o.roll_deg * kDegToRad);
-    renderer.Pose(framing, w);
+    pose(framing, w);
     if (!o.mesh_out.empty()) {
       rig::RigidPose rotation = framing.pose;  // the render's rotation, at the rig's origin
       rotation.translation.setZero();
@@ -289,9 +312,9 @@ void RunRender(const StageFlags& flags, AppState* state) {
       if (s < 0) complete = false; else w[s] = value;
     }
     if (!complete) continue;
-    renderer.Pose(FrameHead(rig, cell, o.fov_deg, o.pitch_deg * kDegToRad,
-                            (o.yaw_deg + c.yaw_deg) * kDegToRad, o.roll_deg * kDegToRad),
-                  w);
+    pose(FrameHead(rig, cell, o.fov_deg, o.pitch_deg * kDegToRad, (o.yaw_deg + c.yaw_deg) * kDegToRad,
+                   o.roll_deg * kDegToRad),
+         w);
     tiles.push_back(renderer.Segmentation());
     tiles.push_back(renderer.Shaded());
     const int cell_index = index++;

@@ -177,6 +177,18 @@ PersonTextures SynthesizePersonTextures(const rig::Rig& head, const textures::On
   return out;
 }
 
+// /scans/textures/neutral [P, S, S, 5] and /scans/textures/offsets [P, K, S, S, 5] with their
+// attributes; `imported_layers` (scans import) is recorded when not empty.
+void CreateSkinMapDatasets(io::H5File* f, int P, int K, int S, const std::string& imported_layers) {
+  f->CreateFrames<float>("/scans/textures/neutral", {S, S, synth::kSkinChannels}, P, 1);
+  f->CreateFrames<float>("/scans/textures/offsets", {K, S, S, synth::kSkinChannels}, P, 1);
+  for (const char* name : {"/scans/textures/neutral", "/scans/textures/offsets"}) {
+    f->SetAttribute(name, "channels", std::string(synth::kSkinChannelNames));
+    f->SetAttribute(name, "layout", std::string("the template's UV layout, row 0 at v = 1 (OBJ convention)"));
+    if (!imported_layers.empty()) f->SetAttribute(name, "imported_layers", imported_layers);
+  }
+}
+
 void RunScansSynth(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -259,14 +271,9 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
     const size_t texture_floats = static_cast<size_t>(S) * S * synth::kSkinChannels;
     const int skin_parameters = S > 0 ? synth::SkinDynamics::kNumParameters : 0;
     if (S > 0) {
-      f.CreateFrames<float>("/scans/textures/neutral", {S, S, synth::kSkinChannels}, P, 1);
-      f.CreateFrames<float>("/scans/textures/offsets", {K, S, S, synth::kSkinChannels}, P, 1);
-      for (const char* name : {"/scans/textures/neutral", "/scans/textures/offsets"}) {
-        f.SetAttribute(name, "channels", std::string("albedo_r albedo_g albedo_b specular displacement_mm"));
-        f.SetAttribute(name, "layout", std::string("the template's UV layout, row 0 at v = 1 (OBJ convention)"));
-      }
+      CreateSkinMapDatasets(&f, P, K, S, "");
       f.CreateFrames<float>("/scans/truth/shape_offsets", {N, S, S, synth::kSkinChannels}, P, 1);
-      f.SetAttribute("/scans/truth/shape_offsets", "channels", std::string("albedo_r albedo_g albedo_b specular displacement_mm"));
+      f.SetAttribute("/scans/truth/shape_offsets", "channels", std::string(synth::kSkinChannelNames));
       f.CreateFrames<float>("/scans/truth/skin", {skin_parameters}, P, 64);
       f.SetAttribute("/scans/truth/skin", "columns", std::string("age wrinkle_depth_mm wrinkle_frequency_per_cm flush blanch"));
     }
@@ -422,15 +429,7 @@ void RunScansImport(const StageFlags& flags, AppState* state) {
     if (output.up_to_date) return;
     io::H5File& f = output.file;
     WriteDatabaseHeader(&f, tmpl, topology, table, alpha, P);
-    if (S > 0) {
-      f.CreateFrames<float>("/scans/textures/neutral", {S, S, synth::kSkinChannels}, P, 1);
-      f.CreateFrames<float>("/scans/textures/offsets", {K, S, S, synth::kSkinChannels}, P, 1);
-      for (const char* name : {"/scans/textures/neutral", "/scans/textures/offsets"}) {
-        f.SetAttribute(name, "channels", std::string("albedo_r albedo_g albedo_b specular displacement_mm"));
-        f.SetAttribute(name, "layout", std::string("the template's UV layout, row 0 at v = 1 (OBJ convention)"));
-        f.SetAttribute(name, "imported_layers", layers.Names());
-      }
-    }
+    if (S > 0) CreateSkinMapDatasets(&f, P, K, S, layers.Names());
     std::vector<int32_t> split;
     auto read = [&](const std::string& path) {
       const io::Mesh mesh = io::ReadMeshObj(path);

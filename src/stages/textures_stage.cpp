@@ -1,19 +1,28 @@
 // facecap eval textures: dynamic textures (paper 001 Sec. 5, eq. 10-14) on the held-out
 // people of a textured scan database, against the true expression textures.
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
 #include <iostream>
 #include <sstream>
 
 #include "io/atomic_file.h"
+#include "io/image_io.h"
 #include "io/rig_io.h"
+#include "rig/evaluate.h"
 #include "stages/cli.h"
+#include "stages/dynamic_texture_file.h"
 #include "stages/registry.h"
+#include "stages/resumable.h"
+#include "stages/tracked_rig.h"
 #include "synth/skin_dynamics.h"
 #include "textures/compress_stretch.h"
 #include "textures/influence.h"
 #include "util/errors.h"
 #include "util/json.h"
 #include "util/log.h"
+#include "util/progress.h"
 
 namespace facecap::stages {
 namespace {
@@ -160,7 +169,7 @@ void WritePersonMaps(const StageContext& ctx, const io::Config& resolved, const 
   f.Write<float>("/textures/dynamic", {K, S, S, C}, dynamic.data());
   f.Write<float>("/textures/per_blendshape", {K, S, S, C}, linear.data());
   for (const char* name : {"/library/neutral", "/textures/truth", "/textures/dynamic"}) {
-    f.SetAttribute(name, "channels", std::string("albedo_r albedo_g albedo_b specular displacement_mm"));
+    f.SetAttribute(name, "channels", std::string(synth::kSkinChannelNames));
   }
   f.Commit();
 }
@@ -228,7 +237,6 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
       const auto loo = textures::ExtractCompressStretch(Pointers(others_influence), Pointers(others_maps), n,
                                                         synth::kSkinChannels, b);
       const textures::DynamicTexture dyn(n, synth::kSkinChannels, p.neutral_maps, loo, Pointers(shape_influence), b);
-      const std::vector<float> w(p.weights.row(k).data(), p.weights.row(k).data() + N);
       std::vector<float> alpha(N);
       for (int i = 0; i < N; ++i) alpha[i] = p.weights(k, i);
       const std::vector<float> est = dyn.Evaluate(alpha), est_all = dyn_all.Evaluate(alpha);
@@ -301,9 +309,228 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
   if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
 }
 
+// [textures.library]
+struct TexturesLibraryOptions {
+  std::string scans = "scans.h5";  // scan database with skin maps
+  std::string person = "0";        // the person: a name of /scans/people/names or an index
+  std::string rig = "rig.h5";      // the person's rig
+  float sharpness = 100.f;         // b of eq. 12 and 14, per cm
+  std::string out = "library.h5";  // the library (a textured rig)
+
+  template <class V>
+  void Visit(V&& v) {
+    v("scans", scans, "scan database with skin maps (scans synth, or scans import of meshes with their maps)");
+    v("person", person, "the person whose expressions make the library: a name of /scans/people/names or an index");
+    v("rig", rig, "the person's rig (blendshapes infer, or any rig of the database's topology); its shapes drive eq. 14");
+    v("sharpness", sharpness, "b of eq. 12's softmax exp(b I) over the influence maps, per cm of edge length change "
+                              "(the paper's equation: 1)");
+    v("out", out, "the library: a textured rig (HDF5) with /dynamic_texture (T_N, T_C, T_S and the shapes' influences)");
+  }
+  bool Check(std::string* why) const {
+    if (scans.empty() || rig.empty() || out.empty()) { *why = "scans, rig and out must name files"; return false; }
+    if (person.empty()) { *why = "person must name a person or give an index"; return false; }
+    if (!(sharpness > 0.f && sharpness <= 1000.f)) { *why = "sharpness must be in (0, 1000]"; return false; }
+    return true;
+  }
+};
+
+// The index of `person` (a name of /scans/people/names, or an index) among P people.
+int PersonIndex(const io::H5File& f, const std::string& path, const std::string& person, int P) {
+  if (f.Exists("/scans/people/names")) {
+    const auto names = f.ReadStrings("/scans/people/names");
+    for (size_t j = 0; j < names.size(); ++j) {
+      if (names[j] == person) return static_cast<int>(j);
+    }
+  }
+  char* end = nullptr;
+  const long j = std::strtol(person.c_str(), &end, 10);
+  if (end == person.c_str() || *end != '\0' || j < 0 || j >= P) {
+    throw InvalidInputError("[textures.library] person '" + person + "' is neither a name nor an index in [0, " +
+                            std::to_string(P) + ") of " + path);
+  }
+  return static_cast<int>(j);
+}
+
+void RunTexturesLibrary(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<TexturesLibraryOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  const io::H5File f = io::H5File::OpenRead(o.scans);
+  if (!f.Exists("/scans/textures/neutral")) {
+    throw FileIOError(o.scans + ": no skin maps (/scans/textures); make it with scans synth (texture_size > 0) or "
+                      "scans import of meshes with maps beside them");
+  }
+  const rig::Rig rig = io::ReadRigFile(o.rig);
+  const auto tshape = f.DatasetShape("/scans/textures/neutral");
+  const auto eshape = f.DatasetShape("/scans/people/expressions");
+  const int P = static_cast<int>(tshape[0]), S = static_cast<int>(tshape[1]), K = static_cast<int>(eshape[1]);
+  const int V = rig.NumVertices(), N = rig.NumShapes();
+  if (eshape[2] != V) {
+    throw InvalidInputError(o.rig + ": " + std::to_string(V) + " vertices, the scans of " + o.scans + " have " +
+                            std::to_string(eshape[2]));
+  }
+  const int j = PersonIndex(f, o.scans, o.person, P);
+  ResumableOutput output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "textures library", resolved));
+  if (output.up_to_date) {
+    FC_INFO("textures library: {} is up to date", o.out);
+    return;
+  }
+  const size_t n = static_cast<size_t>(S) * S, floats = n * synth::kSkinChannels;
+  auto mesh = [&](const float* d) { return rig::Vertices(Eigen::Map<const rig::Vertices>(d, V, 3)); };
+  std::vector<float> buf(3 * static_cast<size_t>(V) * K);
+  f.ReadFrames<float>("/scans/people/neutral", j, 1, buf.data());
+  const rig::Vertices neutral = mesh(buf.data());
+  f.ReadFrames<float>("/scans/people/expressions", j, 1, buf.data());
+  DynamicTextureLibrary lib;
+  lib.size = S;
+  lib.sharpness = o.sharpness;
+  lib.neutral.resize(floats);
+  f.ReadFrames<float>("/scans/textures/neutral", j, 1, lib.neutral.data());
+  std::vector<float> offsets(floats * K);
+  f.ReadFrames<float>("/scans/textures/offsets", j, 1, offsets.data());
+  // Eq. 10-13 over the person's expressions.
+  const textures::TexelInterpolator texels(rig, S);
+  const textures::OneRing ring = textures::BuildOneRing(rig.triangles, V);
+  const Eigen::VectorXf en = textures::MeanEdgeLength(ring, neutral);
+  std::vector<std::vector<float>> influence, maps;
+  for (int k = 0; k < K; ++k) {
+    influence.push_back(textures::InfluenceMap(
+        texels, textures::InfluenceValues(en, textures::MeanEdgeLength(ring, mesh(&buf[3 * static_cast<size_t>(V) * k])))));
+    std::vector<float> t(offsets.begin() + k * floats, offsets.begin() + (k + 1) * floats);
+    for (size_t i = 0; i < floats; ++i) t[i] += lib.neutral[i];
+    maps.push_back(std::move(t));
+  }
+  const auto cs = textures::ExtractCompressStretch(Pointers(influence), Pointers(maps), n, synth::kSkinChannels,
+                                                   o.sharpness);
+  lib.compress = cs.compress;
+  lib.stretch = cs.stretch;
+  // Eq. 10-11 of each rig shape at weight 1 (jaw rotation included) against the rig's neutral.
+  lib.num_shapes = N;
+  lib.num_vertices = V;
+  const Eigen::VectorXf rig_en = textures::MeanEdgeLength(ring, rig.neutral);
+  rig::RigidPose identity;
+  identity.translation.setZero();
+  rig::Vertices posed;
+  for (int i = 0; i < N; ++i) {
+    Eigen::VectorXf w = Eigen::VectorXf::Zero(N);
+    w[i] = 1.f;
+    rig::EvaluatePosed(rig, identity, w, &posed);
+    const auto inf = textures::InfluenceValues(rig_en, textures::MeanEdgeLength(ring, posed));
+    for (int v = 0; v < V; ++v) {
+      lib.influence.push_back(inf.compress[v]);
+      lib.influence.push_back(inf.stretch[v]);
+    }
+  }
+  io::WriteRig(rig, &output.file);
+  WriteDynamicTextureLibrary(&output.file, lib);
+  output.file.Commit();
+  FC_INFO("textures library: person {} of {}, {} expressions, {} shapes, {}x{} maps -> {}", j, o.scans, K, N, S, S,
+          o.out);
+}
+
+// [export.textures]
+struct ExportTexturesOptions {
+  std::string library = "library.h5";  // textures library output
+  std::string track = "track.h5";      // tracked take
+  std::string out = "textures";        // folder of the EXR sequences
+  std::vector<std::string> layers = {"albedo", "specular", "displacement"};
+
+  template <class V>
+  void Visit(V&& v) {
+    v("library", library, "dynamic texture library (textures library): the person's rig with its maps");
+    v("track", track, "tracked take (track, or any file in its layout) whose weights drive eq. 14");
+    v("out", out, "folder for the sequences OUT/<layer>.<frame, 5 digits>.exr (linear albedo RGB, specular, "
+                  "displacement in mm); frames already there are kept");
+    v("layers", layers, "layers to write: albedo, specular, displacement");
+  }
+  bool Check(std::string* why) const {
+    if (library.empty() || track.empty() || out.empty()) { *why = "library, track and out must name files"; return false; }
+    if (layers.empty()) { *why = "layers is empty"; return false; }
+    for (const std::string& l : layers) {
+      if (l != "albedo" && l != "specular" && l != "displacement") {
+        *why = "layers must be albedo, specular or displacement, got '" + l + "'";
+        return false;
+      }
+    }
+    return true;
+  }
+};
+
+void RunExportTextures(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<ExportTexturesOptions>(flags, &ctx, &resolved);
+  const dist::Comm& comm = ctx.comm;
+  rig::Rig rig;
+  std::unique_ptr<textures::DynamicTexture> dynamic;
+  std::unique_ptr<TrackedRig> track;
+  int S = 0;
+  dist::CoordinateExceptions(comm, [&] {
+    rig = io::ReadRigFile(o.library);
+    if (!HasDynamicTexture(o.library)) {
+      throw FileIOError(o.library + ": no /dynamic_texture; make the library with textures library");
+    }
+    const DynamicTextureLibrary library = ReadDynamicTextureLibrary(o.library, rig);
+    S = library.size;
+    dynamic = MakeDynamicTexture(rig, library);
+    track = std::make_unique<TrackedRig>(o.track, rig);
+    std::filesystem::create_directories(o.out);
+  });
+  const int64_t F = track->NumFrames();
+  const dist::Range mine = dist::BlockRange(F, comm.rank(), comm.size());
+  auto frame_path = [&](const std::string& layer, int64_t frame) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "%s.%05lld.exr", layer.c_str(), static_cast<long long>(frame));
+    return (std::filesystem::path(o.out) / name).string();
+  };
+  int64_t done = 0, kept = 0;
+  Progress progress("export textures", mine.end - mine.begin, 0, 5.0, comm.IsMainRank());
+  dist::CoordinateExceptions(comm, [&] {
+    for (int64_t frame = mine.begin; frame < mine.end; ++frame) {
+      bool all_there = true;
+      for (const std::string& l : o.layers) all_there = all_there && std::filesystem::exists(frame_path(l, frame));
+      if (all_there) {
+        ++kept;
+      } else {
+        const Eigen::VectorXf w = track->Weights(frame);
+        const std::vector<float> maps = dynamic->Evaluate(std::vector<float>(w.data(), w.data() + w.size()));
+        for (const std::string& l : o.layers) {
+          const int first = l == "albedo" ? 0 : l == "specular" ? 3 : 4;
+          io::WriteImage(frame_path(l, frame), MapLayer(maps, S, first, l == "albedo" ? 3 : 1));
+        }
+      }
+      progress.Update(++done);
+    }
+    progress.Finish();
+  });
+  double total_kept = static_cast<double>(kept);
+  comm.SumReduce(&total_kept, 1);
+  if (comm.IsMainRank()) {
+    FC_INFO("export textures: {} frames x {} layers at {}x{} -> {} ({} kept from an earlier run)", F, o.layers.size(), S,
+            S, o.out, total_kept);
+  }
+}
+
 }  // namespace
 
 void RegisterTextures(CLI::App* app, AppState* state) {
+  AddStage<ExportTexturesOptions>(
+      GroupSubcommand(app, "export", "Tracked animation to other tools' formats"), state, "textures", "export.textures",
+      "export textures",
+      "A tracked take's dynamic textures (eq. 14 at each frame's weights) as EXR sequences of albedo, specular and "
+      "displacement, frames spread across ranks",
+      PathKeys{{"library", "track"}, {{"out", OutputKind::kFolder}}},
+      RunExportTextures);
+  CLI::App* textures = app->add_subcommand("textures", "Dynamic textures (paper 001 Sec. 5)");
+  textures->require_subcommand(1);
+  AddStage<TexturesLibraryOptions>(
+      textures, state, "library", "textures.library", "textures library",
+      "A person's dynamic texture library from their expression scans and skin maps: eq. 10-13's compress and "
+      "stretch maps and the rig shapes' influences (eq. 14 at runtime); writes a textured rig that render "
+      "draws with the texture of its weights and export textures plays over a take",
+      PathKeys{{"scans", "rig"}, {{"out", OutputKind::kHdf5}}},
+      RunTexturesLibrary);
   AddStage<EvalTexturesOptions>(
       EvalSubcommand(app), state, "textures", "eval.textures", "eval textures",
       "Dynamic textures (paper 001 eq. 10-14) on the held-out people of a textured scan database: PSNR "

@@ -3,6 +3,7 @@
 // dynamic textures of eq. 14 beat the static neutral texture on a held-out person.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -41,6 +42,16 @@ class TexturedScans : public ::testing::Test {
     const size_t at = json.find("\"" + key + "\": ", o);
     if (at == std::string::npos) return NAN;
     return std::strtod(json.c_str() + at + key.size() + 4, nullptr);
+  }
+  // The database's template as a rig file (any rig of its topology drives a library).
+  static std::string TemplateRigFile() {
+    const std::string path = dir_->File("template.h5");
+    if (!std::filesystem::exists(path)) {
+      io::H5File rig_file = io::H5File::CreateAtomic(path);
+      io::WriteRig(io::ReadRig(io::H5File::OpenRead(Scans()), "/template"), &rig_file);
+      rig_file.Commit();
+    }
+    return path;
   }
   // Every value of a frame-major dataset.
   static std::vector<float> ReadAll(const io::H5File& f, const std::string& name) {
@@ -122,11 +133,7 @@ TEST_F(TexturedScans, ImportReadsTheSkinMapsBesideTheMeshes) {
   const std::vector<std::string> names = db.ReadStrings("/scans/facs/names");
   const int smile = static_cast<int>(std::find(names.begin(), names.end(), "smile") - names.begin());
   ASSERT_LT(smile, static_cast<int>(names.size()));
-  {
-    io::H5File rig_file = io::H5File::CreateAtomic(dir_->File("template.h5"));
-    io::WriteRig(tmpl, &rig_file);
-    rig_file.Commit();
-  }
+  TemplateRigFile();
   rig::Vertices neutral(V, 3);
   db.ReadFrames<float>("/scans/people/neutral", 0, 1, neutral.data());
   std::vector<float> expressions(static_cast<size_t>(names.size()) * V * 3);
@@ -187,6 +194,57 @@ TEST_F(TexturedScans, ImportReadsTheSkinMapsBesideTheMeshes) {
   auto missing = RunFacecap(cmd + " --out " + dir_->File("imported2.h5"));
   EXPECT_NE(missing.code, 0);
   EXPECT_NE(missing.output.find("smile.obj: no specular map"), std::string::npos) << missing.output;
+}
+
+// A library of person 3 drives a take of three frames: at zero weights eq. 14 gives the
+// neutral maps exactly, an open jaw changes them, equal weights give equal maps, and the
+// sequences are the same on 2 ranks and when a run continues.
+TEST_F(TexturedScans, LibraryExportsATakesTexturesFrameByFrame) {
+  const std::string library = dir_->File("library.h5");
+  auto r = RunFacecap("textures library --scans " + Scans() + " --person 3 --rig " + TemplateRigFile() + " --out " +
+                      library);
+  ASSERT_EQ(r.code, 0) << r.output;
+  const std::vector<std::string> names = {"jawOpen", "mouthSmileLeft"};
+  Eigen::MatrixXf w(3, 2);
+  w << 0, 0, 1, 0.5f, 1, 0.5f;
+  const std::string track = dir_->File("take.h5");
+  {
+    io::H5File file = io::H5File::CreateAtomic(track);
+    file.WriteStrings("/track/shape_names", names);
+    file.WriteMatrix("/track/weights", w);
+    file.WriteMatrix("/track/pose", Eigen::MatrixXf::Zero(3, 3));
+    file.WriteMatrix("/track/translation", Eigen::MatrixXf::Zero(3, 3));
+    file.WriteVector<float>("/track/scale", {1.f, 1.f, 1.f});
+    file.WriteVector<double>("/camera/intrinsics", {100.0, 100.0, 32.0, 32.0});
+    file.Commit();
+  }
+  const std::string one = dir_->File("tex1"), two = dir_->File("tex2");
+  r = RunFacecap("export textures --library " + library + " --track " + track + " --out " + one);
+  ASSERT_EQ(r.code, 0) << r.output;
+  r = RunFacecap("export textures --library " + library + " --track " + track + " --out " + two, 2);
+  ASSERT_EQ(r.code, 0) << r.output;
+  auto read = [](const std::string& folder, const std::string& layer, int frame) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "/%s.%05d.exr", layer.c_str(), frame);
+    return io::ReadImageF(folder + name, 3).data;
+  };
+  const std::vector<float> neutral = ReadAll(io::H5File::OpenRead(library), "/dynamic_texture/neutral");
+  for (const char* layer : {"albedo", "specular", "displacement"}) {
+    const int first = std::string(layer) == "albedo" ? 0 : std::string(layer) == "specular" ? 3 : 4;
+    const std::vector<float> f0 = read(one, layer, 0);
+    double worst = 0;
+    for (size_t t = 0; t < f0.size() / 3; ++t) {
+      const int channels = first == 0 ? 3 : 1;
+      for (int c = 0; c < channels; ++c) worst = std::max(worst, std::abs(double(f0[3 * t + c]) - neutral[5 * t + first + c]));
+    }
+    EXPECT_EQ(worst, 0.0) << layer;
+    EXPECT_NE(read(one, layer, 1), f0) << layer;
+    EXPECT_EQ(read(one, layer, 1), read(one, layer, 2)) << layer;
+    for (int frame = 0; frame < 3; ++frame) EXPECT_EQ(read(one, layer, frame), read(two, layer, frame)) << layer;
+  }
+  r = RunFacecap("export textures --library " + library + " --track " + track + " --out " + one);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("(3 kept from an earlier run)"), std::string::npos) << r.output;
 }
 
 }  // namespace

@@ -1,0 +1,53 @@
+// A person's dynamic texture library (paper 001 Sec. 5.2-5.3) in one file that is also a
+// textured rig: /rig (the person's rig), /texture/albedo (the neutral albedo, so every reader
+// of a textured rig sees the static texture), and
+//   /dynamic_texture/neutral, compress, stretch [S, S, 5]   T_N, T_C, T_S: albedo R, G, B
+//        (linear), specular, displacement (mm), in the rig's UV layout, row 0 at v = 1
+//   /dynamic_texture/influence [N, V, 2]   per rig shape and vertex, eq. 10-11's compress and
+//        stretch influence (cm) of the shape at weight 1 against the rig's neutral
+//   attribute sharpness_per_cm on /dynamic_texture/compress: b of eq. 12 and 14
+// `render` draws such a rig with eq. 14's albedo at its weights; `export textures` writes a
+// tracked take's maps per frame.
+#ifndef FACECAP_STAGES_DYNAMIC_TEXTURE_FILE_H_
+#define FACECAP_STAGES_DYNAMIC_TEXTURE_FILE_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/hdf5.h"
+#include "rig/rig.h"
+#include "textures/compress_stretch.h"
+#include "util/image.h"
+
+namespace facecap::stages {
+
+struct DynamicTextureLibrary {
+  int size = 0;                    // S
+  float sharpness = 100.f;         // b, per cm
+  std::vector<float> neutral, compress, stretch;  // S x S x 5 each
+  int num_shapes = 0, num_vertices = 0;  // N, V
+  std::vector<float> influence;    // N x V x 2
+};
+
+// Writes the /dynamic_texture group and /texture/albedo (the rig itself is written by the
+// caller).
+void WriteDynamicTextureLibrary(io::H5File* file, const DynamicTextureLibrary& library);
+
+// Whether the file at `path` carries a dynamic texture library.
+bool HasDynamicTexture(const std::string& path);
+
+// Reads the library of `path` for `rig` (its shape count and vertex count); FileIOError naming
+// the file when a dataset is missing, of the wrong shape or not finite.
+DynamicTextureLibrary ReadDynamicTextureLibrary(const std::string& path, const rig::Rig& rig);
+
+// Eq. 14 for the rig: the per-vertex influences interpolated over the rig's UV layout.
+std::unique_ptr<textures::DynamicTexture> MakeDynamicTexture(const rig::Rig& rig,
+                                                              const DynamicTextureLibrary& library);
+
+// One layer of S x S x 5 maps as an image: channels [first, first + count).
+ImageF MapLayer(const std::vector<float>& maps, int size, int first, int count);
+
+}  // namespace facecap::stages
+
+#endif  // FACECAP_STAGES_DYNAMIC_TEXTURE_FILE_H_
