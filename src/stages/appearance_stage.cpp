@@ -216,15 +216,13 @@ class ViewsRun {
       loop.what = s_.stage;
       loop.batch = s_.run.batch;
       loop.threads = threads;
-      RunFrameLoop(
+      RunFrameLoopAndCommit(
           comm_, opened.pending, n, loop,
           [&](int64_t view, int thread) { return RenderView(view, thread); },
           [&](const std::vector<int64_t>& views, const std::vector<std::vector<uint8_t>>& results) {
             CommitViews(views, results);
-          });
-      dist::CoordinateExceptions(comm_, [&] {
-        if (comm_.IsMainRank()) output_.file.Commit();
-      });
+          },
+          &output_);
     }
     if (comm_.IsMainRank()) {
       if (s_.run.sheet != "none") WriteSheet();

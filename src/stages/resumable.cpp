@@ -74,4 +74,14 @@ FrameOutput OpenFrameOutput(const StageContext& ctx, const io::Config& resolved,
   return result;
 }
 
+int64_t RunFrameLoopAndCommit(const dist::Comm& comm, std::vector<int64_t> pending, int64_t total,
+                              const FrameLoopOptions& options, const FrameCompute& compute,
+                              const FrameCommit& commit, ResumableOutput* output) {
+  const int64_t computed = RunFrameLoop(comm, std::move(pending), total, options, compute, commit);
+  dist::CoordinateExceptions(comm, [&] {
+    if (comm.IsMainRank()) output->file.Commit();
+  });
+  return computed;
+}
+
 }  // namespace facecap::stages

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "io/hdf5.h"
+#include "stages/frame_loop.h"
 #include "stages/stage.h"
 
 namespace facecap::stages {
@@ -46,6 +47,12 @@ FrameOutput OpenFrameOutput(const StageContext& ctx, const io::Config& resolved,
                             const std::function<void(io::H5File* file, bool resumed)>& prepare,
                             const std::string& units = "frames",
                             const std::string& mask = "/progress/done");
+
+// The end of a resumable per-frame stage (collective): RunFrameLoop over `pending`, then rank
+// 0 commits `output` (renames NAME.partial to NAME). Returns RunFrameLoop's count.
+int64_t RunFrameLoopAndCommit(const dist::Comm& comm, std::vector<int64_t> pending, int64_t total,
+                              const FrameLoopOptions& options, const FrameCompute& compute,
+                              const FrameCommit& commit, ResumableOutput* output);
 
 }  // namespace facecap::stages
 

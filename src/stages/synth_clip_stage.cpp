@@ -178,15 +178,13 @@ class SynthClipRun {
       loop.what = "synth clip";
       loop.batch = o_.batch;
       loop.threads = threads;
-      RunFrameLoop(
+      RunFrameLoopAndCommit(
           comm_, pending_, co_.frames, loop,
           [&](int64_t index, int thread) { return RenderFrame(index, thread); },
           [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
             CommitFrames(frames, results);
-          });
-      dist::CoordinateExceptions(comm_, [&] {
-        if (comm_.IsMainRank()) output_.file.Commit();
-      });
+          },
+          &output_);
       if (comm_.IsMainRank()) FC_INFO("synth clip: {} frames -> {}", co_.frames, o_.out);
     }
     if (o_.video) WriteVideo();

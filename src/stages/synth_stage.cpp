@@ -135,15 +135,13 @@ class SynthSamplesRun {
     loop.what = "synth samples";
     loop.batch = o_.batch;
     loop.threads = threads;
-    RunFrameLoop(
+    RunFrameLoopAndCommit(
         comm_, pending_, so_.count, loop,
         [&](int64_t index, int thread) { return RenderSample(index, thread); },
         [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
           CommitSamples(frames, results);
-        });
-    dist::CoordinateExceptions(comm_, [&] {
-      if (comm_.IsMainRank()) output_.file.Commit();
-    });
+        },
+        &output_);
     if (comm_.IsMainRank()) FC_INFO("synth samples: {} samples -> {}", so_.count, o_.out);
   }
 

@@ -249,14 +249,12 @@ class TrackRun {
     loop.batch = o_.batch;
     loop.dynamic = true;
     loop.threads = ThreadsPerRank(o_.threads);
-    RunFrameLoop(
+    RunFrameLoopAndCommit(
         comm_, pending_, units_, loop, [&](int64_t unit, int /*thread*/) { return SolveUnit(unit); },
         [&](const std::vector<int64_t>& done_units, const std::vector<std::vector<uint8_t>>& results) {
           CommitUnits(done_units, results);
-        });
-    dist::CoordinateExceptions(comm_, [&] {
-      if (comm_.IsMainRank()) output_.file.Commit();
-    });
+        },
+        &output_);
     if (comm_.IsMainRank()) FC_INFO("track: {} frames -> {}", frames_, o_.out);
   }
 
