@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "io/dynamic_texture_file.h"
 #include "io/image_io.h"
 #include "io/mesh_io.h"
 #include "io/rig_io.h"
@@ -20,7 +21,6 @@
 #include "rig/evaluate.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
-#include "stages/dynamic_texture_file.h"
 #include "stages/rig_texture.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -265,17 +265,12 @@ void RunRender(const StageFlags& flags, AppState* state) {
   const rig::Rig rig = io::ReadRigFile(o.rig);
   Renderer renderer(rig, io::ReadRigTexture(o.rig), o.threads);
   // A dynamic texture library draws each render with eq. 14's albedo at its weights.
-  std::unique_ptr<textures::DynamicTexture> dynamic;
   int dynamic_size = 0;
-  if (HasDynamicTexture(o.rig)) {
-    const DynamicTextureLibrary library = ReadDynamicTextureLibrary(o.rig, rig);
-    dynamic = MakeDynamicTexture(rig, library);
-    dynamic_size = library.size;
-  }
+  const std::unique_ptr<textures::DynamicTexture> dynamic = ReadRigDynamicTexture(o.rig, rig, &dynamic_size);
   auto pose = [&](const Framing& framing, const Eigen::VectorXf& w) {
     if (dynamic) {
       const std::vector<float> maps = dynamic->Evaluate(std::vector<float>(w.data(), w.data() + w.size()));
-      renderer.SetTexture(MapLayer(maps, dynamic_size, 0, 3));
+      renderer.SetTexture(io::SkinMapLayer(maps, dynamic_size, 0, 3));
     }
     renderer.Pose(framing, w);
   };

@@ -3,9 +3,11 @@
 #ifndef FACECAP_STAGES_RIG_TEXTURE_H_
 #define FACECAP_STAGES_RIG_TEXTURE_H_
 
+#include <memory>
 #include <string>
 
 #include "rig/rig.h"
+#include "textures/compress_stretch.h"
 #include "util/image.h"
 
 namespace facecap::stages {
@@ -18,6 +20,12 @@ Image8 ReadRigTextureSrgb(const std::string& rig_path);
 // albedo of the wild clips' first person (skin tone, blotches, pores, redder cheeks, lips,
 // brows, lash lines), linear RGB. InvalidInputError when the rig has no UVs or 68 landmarks.
 ImageF GenericSkinTexture(const rig::Rig& rig);
+
+// Eq. 14 of the dynamic texture library that the rig file at `path` carries
+// (io/dynamic_texture_file.h) for `rig`, with the maps' size in *size; null when the file
+// carries none. FileIOError for a malformed library.
+std::unique_ptr<textures::DynamicTexture> ReadRigDynamicTexture(const std::string& path, const rig::Rig& rig,
+                                                                int* size);
 
 }  // namespace facecap::stages
 

@@ -30,6 +30,7 @@
 #include "assets/geometry_image.h"
 #include "assets/scan_database.h"
 #include "assets/template_shapes.h"
+#include "io/dynamic_texture_file.h"
 #include "io/image_io.h"
 #include "io/mesh_io.h"
 #include "io/rig_io.h"
@@ -177,13 +178,15 @@ PersonTextures SynthesizePersonTextures(const rig::Rig& head, const textures::On
   return out;
 }
 
+static_assert(synth::kSkinChannels == io::kSkinMapChannels, "skin maps have the file layout's channels");
+
 // /scans/textures/neutral [P, S, S, 5] and /scans/textures/offsets [P, K, S, S, 5] with their
 // attributes; `imported_layers` (scans import) is recorded when not empty.
 void CreateSkinMapDatasets(io::H5File* f, int P, int K, int S, const std::string& imported_layers) {
   f->CreateFrames<float>("/scans/textures/neutral", {S, S, synth::kSkinChannels}, P, 1);
   f->CreateFrames<float>("/scans/textures/offsets", {K, S, S, synth::kSkinChannels}, P, 1);
   for (const char* name : {"/scans/textures/neutral", "/scans/textures/offsets"}) {
-    f->SetAttribute(name, "channels", std::string(synth::kSkinChannelNames));
+    f->SetAttribute(name, "channels", std::string(io::kSkinMapChannelNames));
     f->SetAttribute(name, "layout", std::string("the template's UV layout, row 0 at v = 1 (OBJ convention)"));
     if (!imported_layers.empty()) f->SetAttribute(name, "imported_layers", imported_layers);
   }
@@ -273,7 +276,7 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
     if (S > 0) {
       CreateSkinMapDatasets(&f, P, K, S, "");
       f.CreateFrames<float>("/scans/truth/shape_offsets", {N, S, S, synth::kSkinChannels}, P, 1);
-      f.SetAttribute("/scans/truth/shape_offsets", "channels", std::string(synth::kSkinChannelNames));
+      f.SetAttribute("/scans/truth/shape_offsets", "channels", std::string(io::kSkinMapChannelNames));
       f.CreateFrames<float>("/scans/truth/skin", {skin_parameters}, P, 64);
       f.SetAttribute("/scans/truth/skin", "columns", std::string("age wrinkle_depth_mm wrinkle_frequency_per_cm flush blanch"));
     }

@@ -8,13 +8,14 @@
 #include <sstream>
 
 #include "io/atomic_file.h"
+#include "io/dynamic_texture_file.h"
 #include "io/image_io.h"
 #include "io/rig_io.h"
 #include "rig/evaluate.h"
 #include "stages/cli.h"
-#include "stages/dynamic_texture_file.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
+#include "stages/rig_texture.h"
 #include "stages/tracked_rig.h"
 #include "synth/skin_dynamics.h"
 #include "textures/compress_stretch.h"
@@ -169,7 +170,7 @@ void WritePersonMaps(const StageContext& ctx, const io::Config& resolved, const 
   f.Write<float>("/textures/dynamic", {K, S, S, C}, dynamic.data());
   f.Write<float>("/textures/per_blendshape", {K, S, S, C}, linear.data());
   for (const char* name : {"/library/neutral", "/textures/truth", "/textures/dynamic"}) {
-    f.SetAttribute(name, "channels", std::string(synth::kSkinChannelNames));
+    f.SetAttribute(name, "channels", std::string(io::kSkinMapChannelNames));
   }
   f.Commit();
 }
@@ -382,7 +383,7 @@ void RunTexturesLibrary(const StageFlags& flags, AppState* state) {
   f.ReadFrames<float>("/scans/people/neutral", j, 1, buf.data());
   const rig::Vertices neutral = mesh(buf.data());
   f.ReadFrames<float>("/scans/people/expressions", j, 1, buf.data());
-  DynamicTextureLibrary lib;
+  io::DynamicTextureLibrary lib;
   lib.size = S;
   lib.sharpness = o.sharpness;
   lib.neutral.resize(floats);
@@ -423,7 +424,7 @@ void RunTexturesLibrary(const StageFlags& flags, AppState* state) {
     }
   }
   io::WriteRig(rig, &output.file);
-  WriteDynamicTextureLibrary(&output.file, lib);
+  io::WriteDynamicTextureLibrary(&output.file, lib);
   output.file.Commit();
   FC_INFO("textures library: person {} of {}, {} expressions, {} shapes, {}x{} maps -> {}", j, o.scans, K, N, S, S,
           o.out);
@@ -468,12 +469,8 @@ void RunExportTextures(const StageFlags& flags, AppState* state) {
   int S = 0;
   dist::CoordinateExceptions(comm, [&] {
     rig = io::ReadRigFile(o.library);
-    if (!HasDynamicTexture(o.library)) {
-      throw FileIOError(o.library + ": no /dynamic_texture; make the library with textures library");
-    }
-    const DynamicTextureLibrary library = ReadDynamicTextureLibrary(o.library, rig);
-    S = library.size;
-    dynamic = MakeDynamicTexture(rig, library);
+    dynamic = ReadRigDynamicTexture(o.library, rig, &S);
+    if (!dynamic) throw FileIOError(o.library + ": no /dynamic_texture; make the library with textures library");
     track = std::make_unique<TrackedRig>(o.track, rig);
     std::filesystem::create_directories(o.out);
   });
@@ -497,7 +494,7 @@ void RunExportTextures(const StageFlags& flags, AppState* state) {
         const std::vector<float> maps = dynamic->Evaluate(std::vector<float>(w.data(), w.data() + w.size()));
         for (const std::string& l : o.layers) {
           const int first = l == "albedo" ? 0 : l == "specular" ? 3 : 4;
-          io::WriteImage(frame_path(l, frame), MapLayer(maps, S, first, l == "albedo" ? 3 : 1));
+          io::WriteImage(frame_path(l, frame), io::SkinMapLayer(maps, S, first, l == "albedo" ? 3 : 1));
         }
       }
       progress.Update(++done);

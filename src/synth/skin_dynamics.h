@@ -30,8 +30,6 @@
 namespace facecap::synth {
 
 constexpr int kSkinChannels = 5;  // albedo R, G, B, specular, displacement (mm)
-// The channels' names, as the files' `channels` attributes list them.
-inline constexpr const char* kSkinChannelNames = "albedo_r albedo_g albedo_b specular displacement_mm";
 
 struct SkinDynamics {
   float age = 0.5f;                // [0, 1]; sets depth and frequency

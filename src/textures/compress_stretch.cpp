@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 
+#include "textures/influence.h"
 #include "util/errors.h"
 
 namespace facecap::textures {
@@ -140,6 +141,31 @@ size_t DynamicTexture::NumSparseEntries() const {
   for (const auto& s : compress_) k += s.texel.size();
   for (const auto& s : stretch_) k += s.texel.size();
   return k;
+}
+
+DynamicTexture DynamicTextureForRig(const rig::Rig& rig, int size, int channels, std::vector<float> neutral,
+                                    const CompressStretchMaps& maps, const std::vector<float>& vertex_influence,
+                                    float sharpness) {
+  const int N = rig.NumShapes(), V = rig.NumVertices();
+  if (vertex_influence.size() != static_cast<size_t>(N) * V * 2) {
+    throw InvalidInputError("dynamic texture: the influences are not " + std::to_string(N) + " shapes x " +
+                            std::to_string(V) + " vertices x 2");
+  }
+  const TexelInterpolator texels(rig, size);
+  std::vector<std::vector<float>> texel_maps;
+  for (int i = 0; i < N; ++i) {
+    VertexInfluence inf;
+    inf.compress.resize(V);
+    inf.stretch.resize(V);
+    for (int v = 0; v < V; ++v) {
+      inf.compress[v] = vertex_influence[(static_cast<size_t>(i) * V + v) * 2];
+      inf.stretch[v] = vertex_influence[(static_cast<size_t>(i) * V + v) * 2 + 1];
+    }
+    texel_maps.push_back(InfluenceMap(texels, inf));
+  }
+  std::vector<const float*> pointers;
+  for (const auto& m : texel_maps) pointers.push_back(m.data());
+  return DynamicTexture(static_cast<size_t>(size) * size, channels, std::move(neutral), maps, pointers, sharpness);
 }
 
 }  // namespace facecap::textures

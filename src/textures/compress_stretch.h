@@ -18,6 +18,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "rig/rig.h"
+
 namespace facecap::textures {
 
 // Eq. 12 for one channel of M influence maps: maps[i] points at channel `channel` of an
@@ -80,6 +82,13 @@ class DynamicTexture {
   std::vector<Sparse> compress_;       // per blendshape
   std::vector<Sparse> stretch_;
 };
+
+// Eq. 14 for a rig: `vertex_influence` (N x V x 2: each of the rig's N shapes' compress and
+// stretch influence per vertex) interpolated over the rig's size x size UV layout, with the
+// library's maps (size^2 x channels).
+DynamicTexture DynamicTextureForRig(const rig::Rig& rig, int size, int channels, std::vector<float> neutral,
+                                    const CompressStretchMaps& maps, const std::vector<float>& vertex_influence,
+                                    float sharpness);
 
 }  // namespace facecap::textures
 

@@ -1,20 +1,19 @@
-#include "stages/dynamic_texture_file.h"
+#include "io/dynamic_texture_file.h"
 
 #include <cmath>
+#include <utility>
 
 #include "io/texture_file.h"
-#include "synth/skin_dynamics.h"
-#include "textures/influence.h"
 #include "util/errors.h"
 
-namespace facecap::stages {
+namespace facecap::io {
 
 namespace {
 constexpr const char* kGroup = "/dynamic_texture";
-constexpr int kC = synth::kSkinChannels;
+constexpr int kC = kSkinMapChannels;
 }  // namespace
 
-ImageF MapLayer(const std::vector<float>& maps, int size, int first, int count) {
+ImageF SkinMapLayer(const std::vector<float>& maps, int size, int first, int count) {
   ImageF image(size, size, count);
   const size_t n = static_cast<size_t>(size) * size;
   for (size_t t = 0; t < n; ++t) {
@@ -23,49 +22,49 @@ ImageF MapLayer(const std::vector<float>& maps, int size, int first, int count) 
   return image;
 }
 
-void WriteDynamicTextureLibrary(io::H5File* file, const DynamicTextureLibrary& library) {
+void WriteDynamicTextureLibrary(H5File* file, const DynamicTextureLibrary& library) {
   const int64_t S = library.size;
   const size_t maps = static_cast<size_t>(S) * S * kC;
   if (S < 1 || library.neutral.size() != maps || library.compress.size() != maps || library.stretch.size() != maps ||
       library.influence.size() != static_cast<size_t>(library.num_shapes) * library.num_vertices * 2) {
     throw InvalidInputError("dynamic texture library: maps or influences of the wrong size");
   }
-  for (const auto& [name, maps] : {std::pair<const char*, const std::vector<float>*>{"neutral", &library.neutral},
+  for (const auto& [name, data] : {std::pair<const char*, const std::vector<float>*>{"neutral", &library.neutral},
                                    {"compress", &library.compress}, {"stretch", &library.stretch}}) {
     const std::string path = std::string(kGroup) + "/" + name;
-    file->Write<float>(path, {S, S, kC}, maps->data());
-    file->SetAttribute(path, "channels", std::string(synth::kSkinChannelNames));
+    file->Write<float>(path, {S, S, kC}, data->data());
+    file->SetAttribute(path, "channels", std::string(kSkinMapChannelNames));
   }
   file->Write<float>(std::string(kGroup) + "/influence", {library.num_shapes, library.num_vertices, 2},
                      library.influence.data());
   file->SetAttribute(std::string(kGroup) + "/influence", "channels", std::string("compress_cm stretch_cm"));
   file->SetAttribute(std::string(kGroup) + "/compress", "sharpness_per_cm", static_cast<double>(library.sharpness));
-  io::WriteColorTexture(file, io::kTextureAlbedoPath, MapLayer(library.neutral, library.size, 0, 3));
+  WriteColorTexture(file, kTextureAlbedoPath, SkinMapLayer(library.neutral, library.size, 0, 3));
 }
 
 bool HasDynamicTexture(const std::string& path) {
-  return io::H5File::OpenRead(path).Exists(std::string(kGroup) + "/compress");
+  return H5File::OpenRead(path).Exists(std::string(kGroup) + "/compress");
 }
 
-DynamicTextureLibrary ReadDynamicTextureLibrary(const std::string& path, const rig::Rig& rig) {
-  const io::H5File f = io::H5File::OpenRead(path);
+DynamicTextureLibrary ReadDynamicTextureLibrary(const std::string& path, int num_shapes, int num_vertices) {
+  const H5File f = H5File::OpenRead(path);
   DynamicTextureLibrary lib;
   const std::string group(kGroup);
   for (const char* name : {"neutral", "compress", "stretch", "influence"}) {
     if (!f.Exists(group + "/" + name)) throw FileIOError(path + ": no " + group + "/" + name);
   }
-  const io::Shape shape = f.DatasetShape(group + "/neutral");
+  const Shape shape = f.DatasetShape(group + "/neutral");
   if (shape.size() != 3 || shape[0] != shape[1] || shape[0] < 1 || shape[2] != kC) {
     throw FileIOError(path + ": " + group + "/neutral must be [S, S, 5]");
   }
   lib.size = static_cast<int>(shape[0]);
-  const int64_t S = lib.size, N = rig.NumShapes(), V = rig.NumVertices();
+  const int64_t S = lib.size;
   lib.neutral = f.Read<float>(group + "/neutral", {S, S, kC});
   lib.compress = f.Read<float>(group + "/compress", {S, S, kC});
   lib.stretch = f.Read<float>(group + "/stretch", {S, S, kC});
-  lib.influence = f.Read<float>(group + "/influence", {N, V, 2});
-  lib.num_shapes = static_cast<int>(N);
-  lib.num_vertices = static_cast<int>(V);
+  lib.influence = f.Read<float>(group + "/influence", {num_shapes, num_vertices, 2});
+  lib.num_shapes = num_shapes;
+  lib.num_vertices = num_vertices;
   lib.sharpness = static_cast<float>(f.GetDoubleAttribute(group + "/compress", "sharpness_per_cm"));
   for (const auto* v : {&lib.neutral, &lib.compress, &lib.stretch, &lib.influence}) {
     for (float x : *v) {
@@ -79,27 +78,4 @@ DynamicTextureLibrary ReadDynamicTextureLibrary(const std::string& path, const r
   return lib;
 }
 
-std::unique_ptr<textures::DynamicTexture> MakeDynamicTexture(const rig::Rig& rig,
-                                                              const DynamicTextureLibrary& library) {
-  const textures::TexelInterpolator texels(rig, library.size);
-  const int N = rig.NumShapes(), V = rig.NumVertices();
-  std::vector<std::vector<float>> maps;
-  for (int i = 0; i < N; ++i) {
-    textures::VertexInfluence inf;
-    inf.compress.resize(V);
-    inf.stretch.resize(V);
-    for (int v = 0; v < V; ++v) {
-      inf.compress[v] = library.influence[(static_cast<size_t>(i) * V + v) * 2];
-      inf.stretch[v] = library.influence[(static_cast<size_t>(i) * V + v) * 2 + 1];
-    }
-    maps.push_back(textures::InfluenceMap(texels, inf));
-  }
-  std::vector<const float*> pointers;
-  for (const auto& m : maps) pointers.push_back(m.data());
-  const size_t n = static_cast<size_t>(library.size) * library.size;
-  return std::make_unique<textures::DynamicTexture>(n, kC, library.neutral,
-                                                    textures::CompressStretchMaps{library.compress, library.stretch},
-                                                    pointers, library.sharpness);
-}
-
-}  // namespace facecap::stages
+}  // namespace facecap::io

@@ -7,47 +7,45 @@
 //        stretch influence (cm) of the shape at weight 1 against the rig's neutral
 //   attribute sharpness_per_cm on /dynamic_texture/compress: b of eq. 12 and 14
 // `render` draws such a rig with eq. 14's albedo at its weights; `export textures` writes a
-// tracked take's maps per frame.
-#ifndef FACECAP_STAGES_DYNAMIC_TEXTURE_FILE_H_
-#define FACECAP_STAGES_DYNAMIC_TEXTURE_FILE_H_
+// tracked take's maps per frame. The scan database's skin maps use the same five channels.
+#ifndef FACECAP_IO_DYNAMIC_TEXTURE_FILE_H_
+#define FACECAP_IO_DYNAMIC_TEXTURE_FILE_H_
 
-#include <memory>
 #include <string>
 #include <vector>
 
 #include "io/hdf5.h"
-#include "rig/rig.h"
-#include "textures/compress_stretch.h"
 #include "util/image.h"
 
-namespace facecap::stages {
+namespace facecap::io {
+
+// The channels of skin maps, and their names as the files' `channels` attributes list them.
+inline constexpr int kSkinMapChannels = 5;
+inline constexpr const char* kSkinMapChannelNames = "albedo_r albedo_g albedo_b specular displacement_mm";
 
 struct DynamicTextureLibrary {
   int size = 0;                    // S
   float sharpness = 100.f;         // b, per cm
   std::vector<float> neutral, compress, stretch;  // S x S x 5 each
-  int num_shapes = 0, num_vertices = 0;  // N, V
+  int num_shapes = 0, num_vertices = 0;           // N, V
   std::vector<float> influence;    // N x V x 2
 };
 
 // Writes the /dynamic_texture group and /texture/albedo (the rig itself is written by the
-// caller).
-void WriteDynamicTextureLibrary(io::H5File* file, const DynamicTextureLibrary& library);
+// caller). InvalidInputError when the maps or influences are not of the library's sizes.
+void WriteDynamicTextureLibrary(H5File* file, const DynamicTextureLibrary& library);
 
 // Whether the file at `path` carries a dynamic texture library.
 bool HasDynamicTexture(const std::string& path);
 
-// Reads the library of `path` for `rig` (its shape count and vertex count); FileIOError naming
-// the file when a dataset is missing, of the wrong shape or not finite.
-DynamicTextureLibrary ReadDynamicTextureLibrary(const std::string& path, const rig::Rig& rig);
+// Reads the library of `path` for a rig of `num_shapes` shapes and `num_vertices` vertices;
+// FileIOError naming the file when a dataset is missing, of the wrong shape, not finite or
+// (influences) negative.
+DynamicTextureLibrary ReadDynamicTextureLibrary(const std::string& path, int num_shapes, int num_vertices);
 
-// Eq. 14 for the rig: the per-vertex influences interpolated over the rig's UV layout.
-std::unique_ptr<textures::DynamicTexture> MakeDynamicTexture(const rig::Rig& rig,
-                                                              const DynamicTextureLibrary& library);
+// One layer of S x S x 5 skin maps as an image: channels [first, first + count).
+ImageF SkinMapLayer(const std::vector<float>& maps, int size, int first, int count);
 
-// One layer of S x S x 5 maps as an image: channels [first, first + count).
-ImageF MapLayer(const std::vector<float>& maps, int size, int first, int count);
+}  // namespace facecap::io
 
-}  // namespace facecap::stages
-
-#endif  // FACECAP_STAGES_DYNAMIC_TEXTURE_FILE_H_
+#endif  // FACECAP_IO_DYNAMIC_TEXTURE_FILE_H_
