@@ -9,6 +9,7 @@
 #include <Eigen/Eigenvalues>
 #include <torch/torch.h>
 
+#include "nn/adam.h"
 #include "util/errors.h"
 
 namespace facecap::nn {
@@ -940,11 +941,9 @@ double BlendshapeGenerator::Backward(const std::vector<const BlendshapePerson*>&
 void BlendshapeGenerator::OptimizerStep(TrainingStage stage) {
   Impl& m = *impl_;
   const int s = static_cast<int>(stage);
-  const int64_t t = ++m.steps[s];
-  const double beta1 = 0.9, beta2 = 0.999, eps = 1e-8;
-  const double correction1 = 1.0 - std::pow(beta1, static_cast<double>(t));
-  const double correction2 = 1.0 - std::pow(beta2, static_cast<double>(t));
-  const double lr = m.options.learning_rate;
+  AdamStep step;
+  step.step = ++m.steps[s];
+  step.learning_rate = m.options.learning_rate;
   const size_t begin = stage == TrainingStage::kEstimation ? 0 : m.estimation_end;
   const size_t end = stage == TrainingStage::kEstimation ? m.estimation_end : m.parameters.size();
   int64_t offset = 0;
@@ -954,16 +953,9 @@ void BlendshapeGenerator::OptimizerStep(TrainingStage stage) {
     torch::Tensor& p = m.parameters[k];
     const int64_t n = p.numel();
     if (k >= begin && k < end) {
-      float* data = p.data_ptr<float>();
-      const double keep = m.decays[k] ? 1.0 - lr * m.options.weight_decay : 1.0;  // AdamW's decoupled decay
-      for (int64_t j = 0; j < n; ++j) {
-        const int64_t i = offset + j;
-        const double g = m.gradient[i];
-        m.adam_m[i] = static_cast<float>(beta1 * m.adam_m[i] + (1 - beta1) * g);
-        m.adam_v[i] = static_cast<float>(beta2 * m.adam_v[i] + (1 - beta2) * g * g);
-        const double mhat = m.adam_m[i] / correction1, vhat = m.adam_v[i] / correction2;
-        data[j] = static_cast<float>(keep * data[j] - lr * mhat / (std::sqrt(vhat) + eps));
-      }
+      step.keep = m.decays[k] ? 1.0 - step.learning_rate * m.options.weight_decay : 1.0;  // AdamW's decoupled decay
+      AdamUpdate(step, m.gradient.data() + offset, p.data_ptr<float>(), m.adam_m.data() + offset,
+                 m.adam_v.data() + offset, n);
     }
     offset += n;
   }

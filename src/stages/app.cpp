@@ -26,6 +26,7 @@ void RegisterAll(CLI::App* app, AppState* state) {
   RegisterAppearance(app, state);
   RegisterEval(app, state);
   RegisterTextures(app, state);
+  RegisterTexturesNetworks(app, state);
   RegisterRun(app, state);
 }
 

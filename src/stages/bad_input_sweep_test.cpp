@@ -88,6 +88,8 @@ const std::map<std::string, StageInputs>& ValidRuns() {
       {"eval.textures", {{{"scans", "scans.h5"}}, "", {}}},
       {"textures.library", {{{"scans", "scans.h5"}, {"rig", "scans_rig.h5"}}, "", {}}},
       {"export.textures", {{{"library", "library.h5"}, {"track", "track.h5"}}, "", {}}},
+      {"textures.train", {{{"scans", "scans.h5"}}, "--epochs 1 --batch 24 --channels 2 --residual-blocks 0 --threads 1", {}}},
+      {"textures.infer", {{{"model", "texnet.h5"}, {"rig", "scans_rig.h5"}, {"scans", "scans.h5"}}, "", {}}},
       {"track",
        {{{"rig", "rig.h5"}, {"targets", "samples.h5"}, {"frames", ""}},
         "--targets-dataset /samples/segmentation", {}}},
@@ -183,7 +185,9 @@ class BadInputSweep : public ::testing::Test {
       tmpl.Commit();
       const testing::CommandResult r = testing::RunCommand(
           "cd " + Quote(dir_->path()) + " && " + testing::BuildDir() +
-          "/facecap textures library --scans scans.h5 --rig scans_rig.h5 --out library.h5");
+          "/facecap textures library --scans scans.h5 --rig scans_rig.h5 --out library.h5 && " +
+          testing::BuildDir() + "/facecap textures train --scans scans.h5 --out texnet.h5 --epochs 1 --batch 24 "
+          "--channels 2 --residual-blocks 0 --threads 1");
       ASSERT_EQ(r.code, 0) << r.output;
     }
     {

@@ -323,17 +323,15 @@ class BlendshapesTraining : public train::Network {
     const Position at = PositionOf(step);
     const int64_t epoch = at.stage_step / steps_per_epoch_ + (at.stage == nn::TrainingStage::kTuning ? 100000 : 0);
     const int in_epoch = static_cast<int>(at.stage_step % steps_per_epoch_);
-    // The epoch's permutation of the training people (the same on every rank).
-    std::vector<int> order(num_people_);
-    std::iota(order.begin(), order.end(), 0);
-    Rng rng(static_cast<uint64_t>(o_.seed), static_cast<uint64_t>(epoch));
-    for (int i = num_people_ - 1; i > 0; --i) std::swap(order[i], order[static_cast<int>(rng.UniformInt(i + 1))]);
-    const int begin = in_epoch * o_.batch, end = std::min(num_people_, begin + o_.batch);
+    int size = 0;
     std::vector<const nn::BlendshapePerson*> mine;
-    for (int b = begin + comm_.rank(); b < end; b += comm_.size()) mine.push_back(&people_.people[order[b]]);
+    for (int j : train::RankShareOfBatch(num_people_, o_.batch, static_cast<uint64_t>(o_.seed),
+                                         static_cast<uint64_t>(epoch), in_epoch, comm_.rank(), comm_.size(), &size)) {
+      mine.push_back(&people_.people[j]);
+    }
     double rec = 0;
-    losses[0] = model_.Backward(mine, at.stage, 1.f / static_cast<float>(end - begin), &rec);
-    losses[1] = rec / (end - begin);
+    losses[0] = model_.Backward(mine, at.stage, 1.f / static_cast<float>(size), &rec);
+    losses[1] = rec / size;
   }
   float* gradients() override { return model_.GradientBuffer(); }
   int64_t num_gradients() const override { return model_.NumParameters(); }

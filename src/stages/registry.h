@@ -184,6 +184,8 @@ void RegisterAppearance(CLI::App* app, AppState* state);
 // `eval track` (and other metrics) under an `eval` subcommand, made when absent.
 void RegisterEval(CLI::App* app, AppState* state);
 void RegisterTextures(CLI::App* app, AppState* state);
+// `textures train` and `textures infer`, under the `textures` subcommand.
+void RegisterTexturesNetworks(CLI::App* app, AppState* state);
 // Subcommand `name` (eval, export) of `app`, added with `description` on first use: several
 // files register subcommands under it.
 CLI::App* GroupSubcommand(CLI::App* app, const std::string& name, const std::string& description);

@@ -5,7 +5,9 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
+#include "io/dynamic_texture_file.h"
 #include "rig/rig.h"
 #include "textures/compress_stretch.h"
 #include "util/image.h"
@@ -26,6 +28,17 @@ ImageF GenericSkinTexture(const rig::Rig& rig);
 // carries none. FileIOError for a malformed library.
 std::unique_ptr<textures::DynamicTexture> ReadRigDynamicTexture(const std::string& path, const rig::Rig& rig,
                                                                 int* size);
+
+// A person's library (paper 001 eq. 10-13): the compress and stretch maps of the
+// `expressions` meshes' skin maps (S x S x 5 each) under eq. 10-11's influences against
+// `neutral` (the person's neutral mesh), and the influence of each of `rig`'s shapes at
+// weight 1 against the rig's neutral (what eq. 14 blends at runtime). The rig has the
+// expressions' topology and the maps' UV layout.
+io::DynamicTextureLibrary MakeDynamicTextureLibrary(const rig::Rig& rig, const rig::Vertices& neutral,
+                                                    const std::vector<rig::Vertices>& expressions,
+                                                    std::vector<float> neutral_maps,
+                                                    const std::vector<std::vector<float>>& expression_maps, int size,
+                                                    float sharpness);
 
 }  // namespace facecap::stages
 

@@ -14,8 +14,10 @@
 #include "rig/evaluate.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
+#include "stages/frame_loop.h"
 #include "stages/resumable.h"
 #include "stages/rig_texture.h"
+#include "stages/texture_networks.h"
 #include "stages/tracked_rig.h"
 #include "synth/skin_dynamics.h"
 #include "textures/compress_stretch.h"
@@ -23,6 +25,7 @@
 #include "util/errors.h"
 #include "util/json.h"
 #include "util/log.h"
+#include "util/parallel_for.h"
 #include "util/progress.h"
 
 namespace facecap::stages {
@@ -35,6 +38,7 @@ struct EvalTexturesOptions {
   bool json = true;                // print one JSON object (else a table)
   std::string out = "";            // also write the JSON to this file
   std::string maps = "";           // the first held-out person's maps (HDF5)
+  std::string model = "";          // texture network model (textures train): the predicted rows
 
   template <class V>
   void Visit(V&& v) {
@@ -47,8 +51,11 @@ struct EvalTexturesOptions {
                     "compress, stretch [S, S, 5]; /library/shape_influence [N, V, 2]), the expressions' "
                     "influences (/influence/vertex [K, V, 2], /influence/texel [K, S, S, 2]; R compress, "
                     "G stretch) and textures (/textures/truth; /textures/dynamic, eq. 14 with the library of the other "
-                    "expressions; /textures/per_blendshape [K, S, S, 5]) "
+                    "expressions; /textures/per_blendshape [K, S, S, 5]; with a model /textures/network, the networks' "
+                    "expression textures, and /textures/predicted, eq. 14 with the library made from them) "
                     "(empty: none)");
+    v("model", model, "texture network model (textures train): adds the rows of the networks' expression textures "
+                      "and of eq. 14 with the library made from them (empty: none)");
   }
   bool Check(std::string* why) const {
     if (scans.empty()) { *why = "scans must name a file"; return false; }
@@ -149,7 +156,8 @@ void WritePersonMaps(const StageContext& ctx, const io::Config& resolved, const 
                      const std::vector<textures::VertexInfluence>& scan_vertex,
                      const std::vector<std::vector<float>>& scan_texel,
                      const std::vector<textures::VertexInfluence>& shape_vertex, const std::vector<float>& dynamic,
-                     const std::vector<float>& linear, float sharpness) {
+                     const std::vector<float>& linear, const std::vector<float>& network,
+                     const std::vector<float>& predicted, float sharpness) {
   const int64_t K = static_cast<int64_t>(scan_vertex.size()), N = static_cast<int64_t>(shape_vertex.size());
   const int64_t V = p.neutral.rows(), C = synth::kSkinChannels;
   io::H5File f = io::H5File::CreateAtomic(path);
@@ -169,6 +177,10 @@ void WritePersonMaps(const StageContext& ctx, const io::Config& resolved, const 
   f.Write<float>("/textures/truth", {K, S, S, C}, truth.data());
   f.Write<float>("/textures/dynamic", {K, S, S, C}, dynamic.data());
   f.Write<float>("/textures/per_blendshape", {K, S, S, C}, linear.data());
+  if (!network.empty()) {
+    f.Write<float>("/textures/network", {K, S, S, C}, network.data());
+    f.Write<float>("/textures/predicted", {K, S, S, C}, predicted.data());
+  }
   for (const char* name : {"/library/neutral", "/textures/truth", "/textures/dynamic"}) {
     f.SetAttribute(name, "channels", std::string(io::kSkinMapChannelNames));
   }
@@ -202,7 +214,16 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
   const float b = o.sharpness;
   // Methods: the static neutral; eq. 14 with a library from the other K - 1 expressions
   // (leave one out) and from all K; per-blendshape maps blended linearly by the weights.
-  LayerErrors stat, dynamic, in_sample, per_shape;
+  LayerErrors stat, dynamic, in_sample, per_shape, network, predicted;
+  std::unique_ptr<TextureModel> model;
+  if (!o.model.empty()) {
+    model = std::make_unique<TextureModel>(o.model);
+    if (model->size() != S || model->template_rig().NumVertices() != V) {
+      throw InvalidInputError(o.model + ": a model for " + std::to_string(model->size()) + "^2 maps and " +
+                              std::to_string(model->template_rig().NumVertices()) + " vertices; " + o.scans + " has " +
+                              std::to_string(S) + "^2 and " + std::to_string(V));
+    }
+  }
   int people = 0;
   for (int j = 0; j < P; ++j) {
     if (split[j] != 1) continue;
@@ -228,6 +249,17 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
     const auto all = textures::ExtractCompressStretch(Pointers(scan_influence), Pointers(p.expression_maps), n,
                                                       synth::kSkinChannels, b);
     const textures::DynamicTexture dyn_all(n, synth::kSkinChannels, p.neutral_maps, all, Pointers(shape_influence), b);
+    // The networks' textures of the person's expression scans, and eq. 12-14 with them.
+    std::vector<std::vector<float>> net_maps(model ? K : 0);
+    std::unique_ptr<textures::DynamicTexture> dyn_net;
+    if (model) {
+      ParallelFor(0, K, ThreadsPerRank(0), [&](int k) { net_maps[k] = model->ExpressionMaps(p.neutral, p.neutral_maps, p.scans[k]); });
+      const auto net_library = textures::ExtractCompressStretch(Pointers(scan_influence), Pointers(net_maps), n,
+                                                                synth::kSkinChannels, b);
+      dyn_net = std::make_unique<textures::DynamicTexture>(n, synth::kSkinChannels, p.neutral_maps, net_library,
+                                                           Pointers(shape_influence), b);
+    }
+    std::vector<float> kept_network, kept_predicted;
     for (int k = 0; k < K; ++k) {
       std::vector<std::vector<float>> others_influence, others_maps;
       for (int i = 0; i < K; ++i) {
@@ -246,9 +278,14 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
         if (alpha[i] == 0.f) continue;
         for (size_t t = 0; t < texture_floats; ++t) linear[t] += alpha[i] * p.shape_offsets[i][t];
       }
+      const std::vector<float> est_net = dyn_net ? dyn_net->Evaluate(alpha) : std::vector<float>();
       if (keep) {
         kept_dynamic.insert(kept_dynamic.end(), est.begin(), est.end());
         kept_linear.insert(kept_linear.end(), linear.begin(), linear.end());
+        if (model) {
+          kept_network.insert(kept_network.end(), net_maps[k].begin(), net_maps[k].end());
+          kept_predicted.insert(kept_predicted.end(), est_net.begin(), est_net.end());
+        }
       }
       const std::vector<float> region = influence(p.clean[k]);
       const float* truth = p.expression_maps[k].data();
@@ -259,11 +296,15 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
         dynamic.Add(truth + at, est.data() + at);
         in_sample.Add(truth + at, est_all.data() + at);
         per_shape.Add(truth + at, linear.data() + at);
+        if (model) {
+          network.Add(truth + at, net_maps[k].data() + at);
+          predicted.Add(truth + at, est_net.data() + at);
+        }
       }
     }
     if (keep) {
       WritePersonMaps(ctx, resolved, o.maps, j, S, p, all, scan_vertex, scan_influence, shape_vertex, kept_dynamic,
-                      kept_linear, b);
+                      kept_linear, kept_network, kept_predicted, b);
     }
     FC_INFO("eval textures: person {} of {} held out", people, P);
   }
@@ -277,7 +318,12 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
   const double n1k = 1024.0 * 1024.0;
   std::ostringstream js;
   js << "{\"static_neutral\": " << stat.Json() << ", \"dynamic\": " << dynamic.Json()
-     << ", \"dynamic_in_sample\": " << in_sample.Json() << ", \"per_blendshape_maps\": " << per_shape.Json()
+     << ", \"dynamic_in_sample\": " << in_sample.Json() << ", \"per_blendshape_maps\": " << per_shape.Json();
+  if (model) {
+    js << ", \"network_expressions\": " << network.Json() << ", \"dynamic_predicted\": " << predicted.Json()
+       << ", \"model\": " << JsonString(o.model);
+  }
+  js
      << ", \"library_size_ratio\": " << JsonNumber(per_shape_bytes(static_cast<double>(n)) / library_bytes(static_cast<double>(n)))
      << ", \"library_size_ratio_1024\": " << JsonNumber(per_shape_bytes(n1k) / library_bytes(n1k))
      << ", \"library_mb\": " << JsonNumber(library_bytes(static_cast<double>(n)) / 1e6)
@@ -302,6 +348,10 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
     row("dynamic (eq. 14, leave one out)", dynamic);
     row("dynamic (all expressions)", in_sample);
     row("per-blendshape maps", per_shape);
+    if (model) {
+      row("network expression textures", network);
+      row("dynamic (eq. 14, predicted)", predicted);
+    }
     std::printf("library %.2f MB against %.2f MB of per-blendshape maps (%.1fx; %.1fx at 1024^2)\n",
                 library_bytes(static_cast<double>(n)) / 1e6, per_shape_bytes(static_cast<double>(n)) / 1e6,
                 per_shape_bytes(static_cast<double>(n)) / library_bytes(static_cast<double>(n)),
@@ -335,23 +385,6 @@ struct TexturesLibraryOptions {
   }
 };
 
-// The index of `person` (a name of /scans/people/names, or an index) among P people.
-int PersonIndex(const io::H5File& f, const std::string& path, const std::string& person, int P) {
-  if (f.Exists("/scans/people/names")) {
-    const auto names = f.ReadStrings("/scans/people/names");
-    for (size_t j = 0; j < names.size(); ++j) {
-      if (names[j] == person) return static_cast<int>(j);
-    }
-  }
-  char* end = nullptr;
-  const long j = std::strtol(person.c_str(), &end, 10);
-  if (end == person.c_str() || *end != '\0' || j < 0 || j >= P) {
-    throw InvalidInputError("[textures.library] person '" + person + "' is neither a name nor an index in [0, " +
-                            std::to_string(P) + ") of " + path);
-  }
-  return static_cast<int>(j);
-}
-
 void RunTexturesLibrary(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -371,58 +404,31 @@ void RunTexturesLibrary(const StageFlags& flags, AppState* state) {
     throw InvalidInputError(o.rig + ": " + std::to_string(V) + " vertices, the scans of " + o.scans + " have " +
                             std::to_string(eshape[2]));
   }
-  const int j = PersonIndex(f, o.scans, o.person, P);
+  const int j = ScanPersonIndex(f, o.scans, o.person, P);
   ResumableOutput output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "textures library", resolved));
   if (output.up_to_date) {
     FC_INFO("textures library: {} is up to date", o.out);
     return;
   }
-  const size_t n = static_cast<size_t>(S) * S, floats = n * synth::kSkinChannels;
+  const size_t floats = static_cast<size_t>(S) * S * synth::kSkinChannels;
   auto mesh = [&](const float* d) { return rig::Vertices(Eigen::Map<const rig::Vertices>(d, V, 3)); };
   std::vector<float> buf(3 * static_cast<size_t>(V) * K);
   f.ReadFrames<float>("/scans/people/neutral", j, 1, buf.data());
   const rig::Vertices neutral = mesh(buf.data());
   f.ReadFrames<float>("/scans/people/expressions", j, 1, buf.data());
-  io::DynamicTextureLibrary lib;
-  lib.size = S;
-  lib.sharpness = o.sharpness;
-  lib.neutral.resize(floats);
-  f.ReadFrames<float>("/scans/textures/neutral", j, 1, lib.neutral.data());
-  std::vector<float> offsets(floats * K);
+  std::vector<float> neutral_maps(floats), offsets(floats * K);
+  f.ReadFrames<float>("/scans/textures/neutral", j, 1, neutral_maps.data());
   f.ReadFrames<float>("/scans/textures/offsets", j, 1, offsets.data());
-  // Eq. 10-13 over the person's expressions.
-  const textures::TexelInterpolator texels(rig, S);
-  const textures::OneRing ring = textures::BuildOneRing(rig.triangles, V);
-  const Eigen::VectorXf en = textures::MeanEdgeLength(ring, neutral);
-  std::vector<std::vector<float>> influence, maps;
+  std::vector<rig::Vertices> expressions;
+  std::vector<std::vector<float>> maps;
   for (int k = 0; k < K; ++k) {
-    influence.push_back(textures::InfluenceMap(
-        texels, textures::InfluenceValues(en, textures::MeanEdgeLength(ring, mesh(&buf[3 * static_cast<size_t>(V) * k])))));
+    expressions.push_back(mesh(&buf[3 * static_cast<size_t>(V) * k]));
     std::vector<float> t(offsets.begin() + k * floats, offsets.begin() + (k + 1) * floats);
-    for (size_t i = 0; i < floats; ++i) t[i] += lib.neutral[i];
+    for (size_t i = 0; i < floats; ++i) t[i] += neutral_maps[i];
     maps.push_back(std::move(t));
   }
-  const auto cs = textures::ExtractCompressStretch(Pointers(influence), Pointers(maps), n, synth::kSkinChannels,
-                                                   o.sharpness);
-  lib.compress = cs.compress;
-  lib.stretch = cs.stretch;
-  // Eq. 10-11 of each rig shape at weight 1 (jaw rotation included) against the rig's neutral.
-  lib.num_shapes = N;
-  lib.num_vertices = V;
-  const Eigen::VectorXf rig_en = textures::MeanEdgeLength(ring, rig.neutral);
-  rig::RigidPose identity;
-  identity.translation.setZero();
-  rig::Vertices posed;
-  for (int i = 0; i < N; ++i) {
-    Eigen::VectorXf w = Eigen::VectorXf::Zero(N);
-    w[i] = 1.f;
-    rig::EvaluatePosed(rig, identity, w, &posed);
-    const auto inf = textures::InfluenceValues(rig_en, textures::MeanEdgeLength(ring, posed));
-    for (int v = 0; v < V; ++v) {
-      lib.influence.push_back(inf.compress[v]);
-      lib.influence.push_back(inf.stretch[v]);
-    }
-  }
+  const io::DynamicTextureLibrary lib =
+      MakeDynamicTextureLibrary(rig, neutral, expressions, std::move(neutral_maps), maps, S, o.sharpness);
   io::WriteRig(rig, &output.file);
   io::WriteDynamicTextureLibrary(&output.file, lib);
   output.file.Commit();
@@ -519,8 +525,7 @@ void RegisterTextures(CLI::App* app, AppState* state) {
       "displacement, frames spread across ranks",
       PathKeys{{"library", "track"}, {{"out", OutputKind::kFolder}}},
       RunExportTextures);
-  CLI::App* textures = app->add_subcommand("textures", "Dynamic textures (paper 001 Sec. 5)");
-  textures->require_subcommand(1);
+  CLI::App* textures = GroupSubcommand(app, "textures", "Dynamic textures (paper 001 Sec. 5)");
   AddStage<TexturesLibraryOptions>(
       textures, state, "library", "textures.library", "textures library",
       "A person's dynamic texture library from their expression scans and skin maps: eq. 10-13's compress and "

@@ -6,6 +6,7 @@
 #include "rig/demo_head.h"
 #include "textures/compress_stretch.h"
 #include "textures/influence.h"
+#include "textures/network_channels.h"
 #include "util/errors.h"
 
 namespace facecap::textures {
@@ -166,6 +167,73 @@ TEST(CompressStretch, ZeroInfluenceTexelsShareTheWeightsEvenly) {
   const double e = std::exp(1.0);  // exp(b * 0.5)
   EXPECT_NEAR(out[0], 1.0 / (1.0 + e) * 1.0 + 0.5 * 2.0, 1e-6);
   EXPECT_NEAR(out[1], 0.5 * 1.0 + 0.5 * 2.0, 1e-6);
+}
+
+// The networks' channels: the targets' low and high displacement frequencies sum to the
+// displacement offset and the outputs rebuild the expression maps exactly; the offset geometry
+// image of a mesh scaled by s is (s - 1) times its point, with pure stretch; normalization
+// inverts on covered texels.
+TEST(NetworkChannels, TargetsRebuildTheExpressionAndGeometryFollowsTheMesh) {
+  const int S = 32;
+  const TexelInterpolator texels(Head(), S);
+  const size_t n = static_cast<size_t>(S) * S;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  std::vector<float> neutral(n * 5), expression(n * 5);
+  for (size_t i = 0; i < neutral.size(); ++i) {
+    neutral[i] = u(rng);
+    expression[i] = neutral[i] + 0.2f * (u(rng) - 0.5f);
+  }
+  const std::vector<float> out = OutputChannels(neutral, expression, S, 2.f);
+  ASSERT_EQ(out.size(), static_cast<size_t>(kOutputChannels) * n);
+  double low_energy = 0, high_energy = 0;
+  for (size_t t = 0; t < n; ++t) {
+    EXPECT_NEAR(out[4 * n + t] + out[5 * n + t], expression[5 * t + 4] - neutral[5 * t + 4], 1e-6f);
+    low_energy += out[4 * n + t] * out[4 * n + t];
+    high_energy += out[5 * n + t] * out[5 * n + t];
+  }
+  EXPECT_LT(low_energy, 0.2 * high_energy);  // white noise is mostly high frequency
+  const std::vector<float> rebuilt = ExpressionMapsFromOutputs(neutral, out.data(), S);
+  for (size_t i = 0; i < rebuilt.size(); ++i) EXPECT_NEAR(rebuilt[i], expression[i], 1e-6f);
+
+  const rig::Vertices& mesh = Head().neutral;
+  const rig::Vertices scaled = 1.1f * mesh;
+  const OneRing ring = BuildOneRing(Head().triangles, Head().NumVertices());
+  const std::vector<float> e = ExpressionChannels(texels, ring, MeanEdgeLength(ring, mesh), mesh, scaled);
+  const std::vector<float> person = PersonChannels(texels, mesh, mesh, neutral);
+  int covered = 0;
+  for (size_t t = 0; t < n; ++t) {
+    if (!texels.Covered(static_cast<int>(t))) {
+      EXPECT_EQ(person[8 * n + t], 0.f);
+      continue;
+    }
+    ++covered;
+    EXPECT_EQ(person[8 * n + t], 1.f);
+    EXPECT_NEAR(person[5 * n + t], 0.f, 1e-6f);  // the neutral is the template
+    EXPECT_EQ(person[3 * n + t], neutral[5 * t + 3]);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(e[c * n + t], 0.1f * texels.positions()[t][c], 1e-4f);
+    EXPECT_EQ(e[3 * n + t], 0.f);
+    EXPECT_GT(e[4 * n + t], 0.f);
+  }
+  EXPECT_GT(covered, static_cast<int>(n) / 4);
+
+  std::vector<float> coverage(n);
+  for (size_t t = 0; t < n; ++t) coverage[t] = person[8 * n + t];
+  const ChannelNormalization norm = ChannelNormalization::Fit({e.data()}, kExpressionChannels, coverage.data(), S,
+                                                              {true, true, true, false, false});
+  EXPECT_EQ(norm.mean[3], 0.f);
+  std::vector<float> x = e;
+  norm.Apply(x.data(), coverage.data(), S);
+  double mean0 = 0, var0 = 0;
+  for (size_t t = 0; t < n; ++t) {
+    if (coverage[t] == 0.f) continue;
+    mean0 += x[t];
+    var0 += x[t] * x[t];
+  }
+  EXPECT_NEAR(mean0 / covered, 0.0, 1e-4);
+  EXPECT_NEAR(var0 / covered, 1.0, 1e-3);
+  norm.Invert(x.data(), coverage.data(), S);
+  for (size_t i = 0; i < x.size(); ++i) EXPECT_NEAR(x[i], e[i], 1e-5f);
 }
 
 }  // namespace

@@ -6,11 +6,13 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <numeric>
 #include <vector>
 
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/progress.h"
+#include "util/random.h"
 #include "util/signals.h"
 
 namespace facecap::train {
@@ -151,6 +153,19 @@ class ProgressLines {
 }  // namespace
 
 std::string CheckpointPath(const std::string& out) { return out + ".checkpoint"; }
+
+std::vector<int> RankShareOfBatch(int count, int batch, uint64_t seed, uint64_t epoch, int in_epoch, int rank,
+                                  int ranks, int* batch_size) {
+  std::vector<int> order(count);
+  std::iota(order.begin(), order.end(), 0);
+  Rng rng(seed, epoch);
+  for (int i = count - 1; i > 0; --i) std::swap(order[i], order[static_cast<int>(rng.UniformInt(i + 1))]);
+  const int begin = in_epoch * batch, end = std::min(count, begin + batch);
+  std::vector<int> mine;
+  for (int b = begin + rank; b < end; b += ranks) mine.push_back(order[b]);
+  *batch_size = std::max(0, end - begin);
+  return mine;
+}
 
 std::string HexHash(uint64_t hash) {
   char text[24];

@@ -26,6 +26,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "dist/comm.h"
 #include "io/hdf5.h"
@@ -88,6 +89,13 @@ struct TrainResult {
   double seconds = 0;        // wall time of those steps
   uint64_t hash = 0;         // the final parameter hash, equal on every rank
 };
+
+// The items rank `rank` of `ranks` takes of batch `in_epoch` of an epoch: the epoch is a
+// permutation of [0, count) drawn from Rng(seed, epoch), the same on every rank, cut into
+// batches of `batch` items (the last may be short); each rank takes every ranks-th item of
+// the batch, starting at its rank. *batch_size: the batch's size over all ranks.
+std::vector<int> RankShareOfBatch(int count, int batch, uint64_t seed, uint64_t epoch, int in_epoch, int rank,
+                                  int ranks, int* batch_size);
 
 // OUT.checkpoint.
 std::string CheckpointPath(const std::string& out);
