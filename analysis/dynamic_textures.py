@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Dynamic textures (paper 001 eq. 10-13) written out directly in numpy, against what
 `facecap eval textures --maps MAPS` wrote, and a contact sheet of one held-out person's
-expressions with the true, dynamic (eq. 14), static and per-blendshape textures.
+expressions with the true, dynamic (eq. 14), predicted (eq. 14 with the networks' library, when
+MAPS has them), static and per-blendshape textures.
 
     /usr/bin/python3 analysis/dynamic_textures.py SCANS MAPS [--sheet SHEET.png]
 
@@ -83,6 +84,8 @@ def sheet(scans, maps, path):
     rows = [("truth", truth), ("dynamic (eq. 14)", maps["textures/dynamic"][:]),
             ("static neutral", np.broadcast_to(maps["library/neutral"][:], truth.shape)),
             ("per-blendshape maps", maps["textures/per_blendshape"][:])]
+    if "textures/predicted" in maps:
+        rows.insert(2, ("dynamic (eq. 14, predicted)", maps["textures/predicted"][:]))
     neutral = maps["library/neutral"][:]
     # The expressions that change the displacement most.
     change = np.abs(truth[..., 4] - neutral[None, ..., 4]).sum(axis=(1, 2))
@@ -103,8 +106,8 @@ def sheet(scans, maps, path):
     for a in axes.flat:
         a.set_xticks([])
         a.set_yticks([])
-    fig.suptitle("held-out person: true, dynamic (eq. 14, library of the other expressions), static and "
-                 "per-blendshape textures", fontsize=10)
+    fig.suptitle("held-out person: true, dynamic (eq. 14, library of the other expressions), dynamic from the "
+                 "networks' predicted textures, static and per-blendshape textures", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     print(f"contact sheet -> {path}")

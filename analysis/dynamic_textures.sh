@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
 # Dynamic textures (paper 001 Sec. 5, eq. 10-14) in one command: the textured scan database
-# (60 people, 12 held out), `eval textures` on the held-out people at several sharpnesses of
-# eq. 12's softmax (1 is the paper's equation with influences in cm), eq. 10-13 checked
-# against a direct numpy implementation, a contact sheet, and the runtime of eq. 14 at
-# 1024 x 1024 on one core beside the dense formula and per-blendshape maps.
+# (60 people, 12 held out), the expression texture networks trained on its 48 training people
+# (`textures train`), `eval textures` on the held-out people at several sharpnesses of eq. 12's
+# softmax (1 is the paper's equation with influences in cm) with the networks' rows at the
+# default, eq. 10-13 checked against a direct numpy implementation, a contact sheet, and the
+# runtime of eq. 14 at 1024 x 1024 on one core beside the dense formula and per-blendshape
+# maps.
 #
 #   analysis/dynamic_textures.sh [BUILD_DIR]
 #
-# Environment: WORK (out/dynamic_textures), RANKS (2). Takes about 3 minutes on 2 cores.
+# Environment: WORK (out/dynamic_textures), RANKS (2). Takes about 20 minutes on 2 cores, most
+# of it training the networks.
 source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
 take_build_dir "$@"
 build_targets facecap facecap_bench_dynamic_texture
@@ -18,10 +21,12 @@ log() { echo "[dynamic_textures] $*" >&2; }
 
 log "scans synth (textured) -> ${work}/scans.h5"
 "${mpirun_cmd[@]}" -n "${ranks}" "${facecap}" scans synth --out "${work}/scans.h5" --people 60 --test-people 12
+log "textures train -> ${work}/texnet.h5"
+"${mpirun_cmd[@]}" -n "${ranks}" "${facecap}" textures train --scans "${work}/scans.h5" --out "${work}/texnet.h5"
 for b in 1 30 100 300; do
   log "eval textures, sharpness ${b}"
   maps=()
-  [[ "${b}" == 100 ]] && maps=(--maps "${work}/maps.h5")
+  [[ "${b}" == 100 ]] && maps=(--maps "${work}/maps.h5" --model "${work}/texnet.h5")
   "${facecap}" eval textures --scans "${work}/scans.h5" --sharpness "${b}" --out "${work}/eval_b${b}.json" \
     "${maps[@]}" > /dev/null
 done
@@ -41,6 +46,12 @@ for b in (1, 30, 100, 300):
     d = json.load(open(f"{work}/eval_b{b}.json"))
     cell = lambda k: " / ".join(f"{d[k][x]:.2f}" for x in ("albedo_db", "specular_db", "displacement_db"))
     print(f"| {b} | {cell('static_neutral')} | {cell('dynamic')} | {cell('per_blendshape_maps')} |")
+d = json.load(open(f"{work}/eval_b100.json"))
+print("\nThe networks (sharpness 100): their expression textures of the held-out people's expression scans, and "
+      "eq. 14 with the library made from them (eq. 12-13), against the truth:\n")
+print("| static neutral | network expression textures | dynamic, eq. 14 (predicted library) | dynamic, eq. 14 (true textures, leave one out) |")
+print("| --- | --- | --- | --- |")
+print(f"| {cell('static_neutral')} | {cell('network_expressions')} | {cell('dynamic_predicted')} | {cell('dynamic')} |")
 print(f"\nlibrary {d['library_mb']:.2f} MB against {d['per_blendshape_maps_mb']:.2f} MB of per-blendshape maps "
       f"at {d['texture_size']}^2 ({d['library_size_ratio']:.1f}x; {d['library_size_ratio_1024']:.1f}x at 1024^2); "
       f"{d['people']} people, {d['expressions']} expressions, {d['blendshapes']} blendshapes")

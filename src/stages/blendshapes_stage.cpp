@@ -35,6 +35,7 @@
 #include "stages/holdout.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
+#include "stages/texture_networks.h"
 #include "train/controller.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -670,19 +671,24 @@ void RunBlendshapesBaselines(const StageFlags& flags, AppState* state) {
 // [blendshapes.infer]
 struct BlendshapesInferOptions {
   std::string model = "bsgen.h5";     // trained model
-  std::string neutral = "neutral.obj";  // the person's neutral mesh (template topology, cm)
+  std::string neutral = "";           // the person's neutral mesh (template topology, cm)
+  std::string scans = "";             // or a scan database holding it
+  std::string person = "0";           // the person in scans
   std::string out = "rig.h5";         // personalized rig
   int threads = 1;                    // tensor threads
 
   template <class V>
   void Visit(V&& v) {
     v("model", model, "trained model (HDF5, from blendshapes train)");
-    v("neutral", neutral, "the person's neutral mesh: OBJ with the template's topology (cm)");
+    v("neutral", neutral, "the person's neutral mesh: OBJ with the template's topology (cm); or give scans and person");
+    v("scans", scans, "a scan database whose person's neutral is the input (instead of neutral)");
+    v("person", person, "the person in scans: a name of /scans/people/names or an index");
     v("out", out, "personalized rig (HDF5, rig.h5 layout)");
     v("threads", threads, "tensor threads");
   }
   bool Check(std::string* why) const {
-    if (model.empty() || neutral.empty() || out.empty()) { *why = "model, neutral and out must name files"; return false; }
+    if (model.empty() || out.empty()) { *why = "model and out must name files"; return false; }
+    if (neutral.empty() == scans.empty()) { *why = "give either neutral (an OBJ) or scans (and person)"; return false; }
     if (threads < 1) { *why = "threads must be >= 1"; return false; }
     return true;
   }
@@ -696,9 +702,20 @@ void RunBlendshapesInfer(const StageFlags& flags, AppState* state) {
     if (!ctx.comm.IsMainRank()) return;
     nn::SetTensorThreads(o.threads);
     const LoadedModel m = LoadModel(o.model);
-    const io::Mesh mesh = io::ReadMeshObj(o.neutral);
+    io::Mesh mesh;
+    if (!o.neutral.empty()) {
+      mesh = io::ReadMeshObj(o.neutral);
+    } else {
+      const io::H5File f = io::H5File::OpenRead(o.scans);
+      const io::Shape shape = f.DatasetShape("/scans/people/neutral");
+      if (shape.size() != 3 || shape[2] != 3) throw FileIOError(o.scans + ": /scans/people/neutral is not [P, V, 3]");
+      mesh.vertices.resize(shape[1], 3);
+      f.ReadFrames<float>("/scans/people/neutral", ScanPersonIndex(f, o.scans, o.person, static_cast<int>(shape[0])), 1,
+                          mesh.vertices.data());
+    }
+    const std::string input = o.neutral.empty() ? o.scans : o.neutral;
     if (mesh.vertices.rows() != m.tmpl.NumVertices()) {
-      throw FileIOError(o.neutral + ": " + std::to_string(mesh.vertices.rows()) + " vertices, the model's template has " +
+      throw FileIOError(input + ": " + std::to_string(mesh.vertices.rows()) + " vertices, the model's template has " +
                         std::to_string(m.tmpl.NumVertices()));
     }
     const Eigen::VectorXf neutral = Eigen::Map<const Eigen::VectorXf>(mesh.vertices.data(), mesh.vertices.size());
@@ -913,8 +930,8 @@ void RegisterBlendshapes(CLI::App* app, AppState* state) {
       RunBlendshapesBaselines);
   AddStage<BlendshapesInferOptions>(
       bs, state, "infer", "blendshapes.infer", "blendshapes infer",
-      "One neutral mesh to a personalized rig.h5",
-      PathKeys{{"model", "neutral"}, {{"out", OutputKind::kHdf5}}},
+      "One neutral mesh (an OBJ, or a person of a scan database) to a personalized rig.h5",
+      PathKeys{{"model", "neutral", "scans"}, {{"out", OutputKind::kHdf5}}},
       RunBlendshapesInfer);
   CLI::App* eval = EvalSubcommand(app);
   AddStage<EvalBlendshapesOptions>(

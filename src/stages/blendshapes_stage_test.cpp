@@ -193,6 +193,21 @@ TEST_F(Blendshapes, BaselinesEvalAndInferenceProduceTheTableAndARig) {
   const rig::Rig personal = InferRig(model, "plain", &neutral);
   EXPECT_EQ(personal.NumShapes(), 55);
   EXPECT_EQ(personal.neutral, neutral);
+  // The same person named in the database instead of an OBJ: the same rig.
+  const std::string from_scans = dir_->File("from_scans_rig.h5");
+  auto r = RunFacecap("blendshapes infer --model " + model + " --scans " + Scans() + " --person 4 --out " + from_scans);
+  ASSERT_EQ(r.code, 0) << r.output;
+  const rig::Rig again = io::ReadRigFile(from_scans);
+  EXPECT_EQ(again.neutral, personal.neutral);
+  ASSERT_EQ(again.NumShapes(), personal.NumShapes());
+  for (int i = 0; i < again.NumShapes(); ++i) {
+    EXPECT_EQ(again.shapes[i].delta.vertex, personal.shapes[i].delta.vertex);
+    EXPECT_EQ(again.shapes[i].delta.offset, personal.shapes[i].delta.offset);
+  }
+  auto both = RunFacecap("blendshapes infer --model " + model + " --scans " + Scans() + " --neutral " +
+                         dir_->File("plain_neutral.obj") + " --out " + dir_->File("both.h5"));
+  EXPECT_NE(both.code, 0);
+  EXPECT_NE(both.output.find("either neutral"), std::string::npos) << both.output;
 }
 
 }  // namespace

@@ -42,6 +42,7 @@ struct RenderStageOptions {
   float roll_deg = 0.f;                  // head roll
   std::vector<std::string> weights;      // shape weights as name=value
   bool sheet = false;                    // contact sheet of neutral + expressions
+  bool dynamic_texture = true;           // a library's texture follows the weights (eq. 14)
   std::string mesh_out;                  // posed mesh (.obj, .glb, .gltf); empty: none
   int threads = 0;                       // OpenMP threads (0: all)
 
@@ -60,6 +61,9 @@ struct RenderStageOptions {
     v("weights", weights, "shape weights as name=value, e.g. jawOpen=0.7,eyeBlinkLeft=1");
     v("sheet", sheet, "write a contact sheet: the neutral and expressions, segmentation and "
                       "shaded side by side");
+    v("dynamic_texture", dynamic_texture,
+      "a dynamic texture library is drawn with the albedo of each render's weights (eq. 14); false: with its "
+      "static neutral albedo, to compare the two");
     v("mesh_out", mesh_out,
       "also write the posed mesh (the weights' expression rotated by pitch, yaw and roll about "
       "the rig's origin, without the camera's translation) to .obj (cm), .glb or .gltf (m); "
@@ -266,7 +270,8 @@ void RunRender(const StageFlags& flags, AppState* state) {
   Renderer renderer(rig, io::ReadRigTexture(o.rig), o.threads);
   // A dynamic texture library draws each render with eq. 14's albedo at its weights.
   int dynamic_size = 0;
-  const std::unique_ptr<textures::DynamicTexture> dynamic = ReadRigDynamicTexture(o.rig, rig, &dynamic_size);
+  const std::unique_ptr<textures::DynamicTexture> dynamic =
+      o.dynamic_texture ? ReadRigDynamicTexture(o.rig, rig, &dynamic_size) : nullptr;
   auto pose = [&](const Framing& framing, const Eigen::VectorXf& w) {
     if (dynamic) {
       const std::vector<float> maps = dynamic->Evaluate(std::vector<float>(w.data(), w.data() + w.size()));

@@ -539,7 +539,7 @@ void RegisterTextures(CLI::App* app, AppState* state) {
       "of albedo, specular and displacement against the true expression textures where the "
       "expression moves the skin, beside the static neutral texture and per-blendshape maps, and "
       "the library's size against theirs; one JSON object",
-      PathKeys{{"scans"}, {{"out", OutputKind::kText}, {"maps", OutputKind::kHdf5}}},
+      PathKeys{{"scans", "model"}, {{"out", OutputKind::kText}, {"maps", OutputKind::kHdf5}}},
       RunEvalTextures);
 }
 
