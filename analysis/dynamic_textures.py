@@ -106,8 +106,9 @@ def sheet(scans, maps, path):
     for a in axes.flat:
         a.set_xticks([])
         a.set_yticks([])
-    fig.suptitle("held-out person: true, dynamic (eq. 14, library of the other expressions), dynamic from the "
+    fig.suptitle("held-out person: true, dynamic (eq. 14, library of the other expressions),\ndynamic from the "
                  "networks' predicted textures, static and per-blendshape textures", fontsize=10)
+    fig.subplots_adjust(top=0.93)
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     print(f"contact sheet -> {path}")
