@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "util/errors.h"
+#include "util/hash.h"
 #include "util/version.h"
 
 namespace facecap::io {
@@ -637,12 +638,7 @@ void DoneMask::MarkDone(const std::vector<int64_t>& frames) {
 }
 
 std::string ConfigHash(const std::string& text) {
-  // FNV-1a 64-bit: stable across platforms and builds.
-  uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : text) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
+  const uint64_t h = Fnv1a(text.data(), text.size());
   char buf[17];
   std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(h));
   return buf;

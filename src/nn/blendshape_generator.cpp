@@ -10,6 +10,7 @@
 #include <torch/torch.h>
 
 #include "nn/adam.h"
+#include "nn/parameter_vector.h"
 #include "util/errors.h"
 
 namespace facecap::nn {
@@ -925,15 +926,7 @@ double BlendshapeGenerator::Backward(const std::vector<const BlendshapePerson*>&
     loss = loss + ridge * (m.options.amplitude_decay * static_cast<float>(B) * loss_scale);
   }
   loss.backward();
-  int64_t offset = 0;
-  for (auto& p : m.parameters) {
-    const int64_t n = p.numel();
-    if (p.grad().defined()) {
-      const torch::Tensor g = p.grad().contiguous();
-      std::copy(g.data_ptr<float>(), g.data_ptr<float>() + n, m.gradient.begin() + offset);
-    }
-    offset += n;
-  }
+  CopyGradients(m.parameters, m.gradient.data());
   if (reconstruction) *reconstruction = rec.sum().item<double>();
   return loss.item<double>();
 }
@@ -961,15 +954,7 @@ void BlendshapeGenerator::OptimizerStep(TrainingStage stage) {
   }
 }
 
-std::vector<float> BlendshapeGenerator::Parameters() const {
-  std::vector<float> out;
-  out.reserve(impl_->num_parameters);
-  for (const auto& p : impl_->parameters) {
-    const torch::Tensor c = p.detach().contiguous();
-    out.insert(out.end(), c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
-  }
-  return out;
-}
+std::vector<float> BlendshapeGenerator::Parameters() const { return FlattenParameters(impl_->parameters); }
 
 void BlendshapeGenerator::SetParameters(const std::vector<float>& parameters) {
   if (static_cast<int64_t>(parameters.size()) != impl_->num_parameters) {
@@ -977,12 +962,7 @@ void BlendshapeGenerator::SetParameters(const std::vector<float>& parameters) {
                       " parameters given, the networks have " + std::to_string(impl_->num_parameters));
   }
   impl_->DropInference();
-  torch::NoGradGuard no_grad;
-  int64_t offset = 0;
-  for (auto& p : impl_->parameters) {
-    std::copy(parameters.begin() + offset, parameters.begin() + offset + p.numel(), p.data_ptr<float>());
-    offset += p.numel();
-  }
+  SetFlatParameters(parameters, &impl_->parameters);
 }
 
 void BlendshapeGenerator::FitAmplitudeBasis(const std::vector<const BlendshapePerson*>& people) {

@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "util/errors.h"
+#include "util/hash.h"
 
 namespace facecap::nn {
 
@@ -426,12 +427,7 @@ uint64_t DeepfakeModel::ParameterHash() {
   ParametersToHost();
   const auto* bytes = reinterpret_cast<const uint8_t*>(parameters());
   const size_t n = static_cast<size_t>(num_parameters()) * sizeof(float);
-  uint64_t h = 1469598103934665603ull;
-  for (size_t i = 0; i < n; ++i) {
-    h ^= bytes[i];
-    h *= 1099511628211ull;
-  }
-  return h;
+  return Fnv1a(bytes, n);
 }
 
 void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,

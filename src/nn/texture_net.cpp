@@ -5,6 +5,7 @@
 #include <torch/torch.h>
 
 #include "nn/adam.h"
+#include "nn/parameter_vector.h"
 #include "util/errors.h"
 
 namespace facecap::nn {
@@ -139,15 +140,7 @@ void TextureNets::Backward(const std::vector<TextureExample>& batch, float loss_
   const torch::Tensor l_detail = masked_l1(detail, target.narrow(1, kAlbedoChannels, kDetailChannels));
   const torch::Tensor loss = (l_albedo + l_detail).sum() * loss_scale;
   loss.backward();
-  int64_t offset = 0;
-  for (auto& p : m.parameters) {
-    const int64_t count = p.numel();
-    if (p.grad().defined()) {
-      const torch::Tensor g = p.grad().contiguous();
-      std::copy(g.data_ptr<float>(), g.data_ptr<float>() + count, m.gradient.begin() + offset);
-    }
-    offset += count;
-  }
+  CopyGradients(m.parameters, m.gradient.data());
   losses[0] = l_albedo.sum().item<double>();
   losses[1] = l_detail.sum().item<double>();
 }
@@ -167,27 +160,14 @@ void TextureNets::OptimizerStep() {
   }
 }
 
-std::vector<float> TextureNets::Parameters() const {
-  std::vector<float> out;
-  out.reserve(impl_->num_parameters);
-  for (const auto& p : impl_->parameters) {
-    const torch::Tensor c = p.detach().contiguous();
-    out.insert(out.end(), c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
-  }
-  return out;
-}
+std::vector<float> TextureNets::Parameters() const { return FlattenParameters(impl_->parameters); }
 
 void TextureNets::SetParameters(const std::vector<float>& parameters) {
   if (static_cast<int64_t>(parameters.size()) != impl_->num_parameters) {
     throw FileIOError("texture networks: " + std::to_string(parameters.size()) + " parameters given, the networks have " +
                       std::to_string(impl_->num_parameters));
   }
-  torch::NoGradGuard no_grad;
-  int64_t offset = 0;
-  for (auto& p : impl_->parameters) {
-    std::copy(parameters.begin() + offset, parameters.begin() + offset + p.numel(), p.data_ptr<float>());
-    offset += p.numel();
-  }
+  SetFlatParameters(parameters, &impl_->parameters);
 }
 
 std::vector<float> TextureNets::State() const {

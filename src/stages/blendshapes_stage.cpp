@@ -38,6 +38,7 @@
 #include "stages/texture_networks.h"
 #include "train/controller.h"
 #include "util/errors.h"
+#include "util/hash.h"
 #include "util/log.h"
 #include "util/parallel_for.h"
 #include "util/random.h"
@@ -356,12 +357,7 @@ class BlendshapesTraining : public train::Network {
   }
   uint64_t ParameterHash() override {
     const std::vector<float> parameters = model_.Parameters();
-    uint64_t hash = 1469598103934665603ull;  // FNV-1a over the parameter bytes
-    for (const uint8_t* b = reinterpret_cast<const uint8_t*>(parameters.data()),
-                      *e = b + parameters.size() * sizeof(float); b != e; ++b) {
-      hash = (hash ^ *b) * 1099511628211ull;
-    }
-    return hash;
+    return Fnv1a(parameters.data(), parameters.size() * sizeof(float));
   }
 
   // /optimizer/state: the parameters, Adam moments and step counts; /optimizer/parameter_sum
@@ -442,17 +438,6 @@ void BlendshapesTraining::WriteModel(io::H5File* f, int64_t steps_done) {
   f->SetAttribute(p, "train_steps", steps_done);
 }
 
-// The options with those that may change between a run and its continuation at their
-// defaults.
-BlendshapesTrainOptions IdentityOptions(const BlendshapesTrainOptions& o) {
-  BlendshapesTrainOptions id = o;
-  const BlendshapesTrainOptions defaults;
-  id.out = defaults.out;
-  id.checkpoint_every = defaults.checkpoint_every;
-  id.threads = defaults.threads;
-  id.progress_seconds = defaults.progress_seconds;
-  return id;
-}
 
 void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
@@ -472,7 +457,7 @@ void RunBlendshapesTrain(const StageFlags& flags, AppState* state) {
             setup.layout->chart_vertices().size());
   }
   train::ControllerOptions control = TrainingControl(ctx, resolved, "blendshapes train",
-                                                     "blendshapes.train", o.out, IdentityOptions(o));
+                                                     "blendshapes.train", o.out, TrainingIdentity(o));
   control.steps = network.total_steps();
   control.checkpoint_every = o.checkpoint_every;
   control.progress_seconds = o.progress_seconds;

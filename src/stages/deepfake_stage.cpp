@@ -410,15 +410,11 @@ std::vector<uint8_t> ResizedImages(const ImageShard& shard, int64_t first, int c
 // The options with those that may change between a run and its continuation (steps,
 // checkpoint and preview cadence, threads, device, paths of side outputs) at their defaults.
 DeepfakeTrainOptions IdentityOptions(const DeepfakeTrainOptions& o) {
-  DeepfakeTrainOptions id = o;
+  DeepfakeTrainOptions id = TrainingIdentity(o);
   const DeepfakeTrainOptions defaults;
   id.steps = defaults.steps;
-  id.checkpoint_every = defaults.checkpoint_every;
   id.preview_every = defaults.preview_every;
   id.device = defaults.device;
-  id.threads = defaults.threads;
-  id.progress_seconds = defaults.progress_seconds;
-  id.out = defaults.out;
   return id;
 }
 

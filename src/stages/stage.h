@@ -40,6 +40,20 @@ train::ControllerOptions TrainingControl(const StageContext& ctx, const io::Conf
   return control;
 }
 
+// A trainer's options with those that may change between a run and its continuation (the
+// model file, checkpoint and progress cadences, threads) at their defaults: what
+// TrainingControl's identity hashes.
+template <class Options>
+Options TrainingIdentity(const Options& o) {
+  Options id = o;
+  const Options defaults;
+  id.out = defaults.out;
+  id.checkpoint_every = defaults.checkpoint_every;
+  id.threads = defaults.threads;
+  id.progress_seconds = defaults.progress_seconds;
+  return id;
+}
+
 }  // namespace facecap::stages
 
 #endif  // FACECAP_STAGES_STAGE_H_

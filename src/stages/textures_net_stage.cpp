@@ -19,6 +19,7 @@
 #include "stages/texture_networks.h"
 #include "textures/network_channels.h"
 #include "util/errors.h"
+#include "util/hash.h"
 #include "util/log.h"
 #include "util/parallel_for.h"
 
@@ -33,7 +34,7 @@ static_assert(textures::kOutputChannels == nn::TextureNets::kOutputChannels);
 struct TexturesTrainOptions {
   std::string scans = "scans.h5";      // textured scan database
   std::string out = "texnet.h5";       // trained model
-  int epochs = 8;                      // passes over the training people's expressions
+  int epochs = 12;                     // passes over the training people's expressions
   int batch = 8;                       // expressions per optimizer step, all ranks together
   float low_frequency_sigma = 2.f;     // blur of the displacement's low-frequency part, texels
   int checkpoint_every = 100;          // steps between checkpoints
@@ -183,12 +184,7 @@ class TextureTraining : public train::Network {
   void Apply(int64_t) override { model_.OptimizerStep(); }
   uint64_t ParameterHash() override {
     const std::vector<float> parameters = model_.Parameters();
-    uint64_t hash = 1469598103934665603ull;  // FNV-1a over the parameter bytes
-    for (const uint8_t* b = reinterpret_cast<const uint8_t*>(parameters.data()),
-                      *e = b + parameters.size() * sizeof(float); b != e; ++b) {
-      hash = (hash ^ *b) * 1099511628211ull;
-    }
-    return hash;
+    return Fnv1a(parameters.data(), parameters.size() * sizeof(float));
   }
   void WriteState(io::H5File* f, int64_t) override { f->WriteVector<float>("/optimizer/state", model_.State()); }
   void ReadState(const io::H5File& f) override {
@@ -234,15 +230,6 @@ class TextureTraining : public train::Network {
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
 };
 
-TexturesTrainOptions IdentityOptions(const TexturesTrainOptions& o) {
-  TexturesTrainOptions id = o;
-  const TexturesTrainOptions defaults;
-  id.out = defaults.out;
-  id.checkpoint_every = defaults.checkpoint_every;
-  id.threads = defaults.threads;
-  id.progress_seconds = defaults.progress_seconds;
-  return id;
-}
 
 void RunTexturesTrain(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
@@ -259,7 +246,7 @@ void RunTexturesTrain(const StageFlags& flags, AppState* state) {
             comm.size(), data.size, data.size);
   }
   train::ControllerOptions control = TrainingControl(ctx, resolved, "textures train", "textures.train", o.out,
-                                                     IdentityOptions(o));
+                                                     TrainingIdentity(o));
   control.steps = network.total_steps();
   control.checkpoint_every = o.checkpoint_every;
   control.progress_seconds = o.progress_seconds;
