@@ -9,7 +9,7 @@
 #
 #   analysis/dynamic_textures.sh [BUILD_DIR]
 #
-# Environment: WORK (out/dynamic_textures), RANKS (2). Takes about 20 minutes on 2 cores, most
+# Environment: WORK (out/dynamic_textures), RANKS (2). Takes about 25 minutes on 2 cores, most
 # of it training the networks.
 source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
 take_build_dir "$@"

@@ -34,7 +34,7 @@ static_assert(textures::kOutputChannels == nn::TextureNets::kOutputChannels);
 struct TexturesTrainOptions {
   std::string scans = "scans.h5";      // textured scan database
   std::string out = "texnet.h5";       // trained model
-  int epochs = 12;                     // passes over the training people's expressions
+  int epochs = 24;                     // passes over the training people's expressions
   int batch = 8;                       // expressions per optimizer step, all ranks together
   float low_frequency_sigma = 2.f;     // blur of the displacement's low-frequency part, texels
   int checkpoint_every = 100;          // steps between checkpoints
