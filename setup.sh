@@ -36,6 +36,10 @@ PACKAGES=(
   python3-h5py python3-matplotlib python3-numpy
   # real test media: a portrait photo (grace_hopper.jpg) for the face and ingest tests
   python-matplotlib-data
+  # lip-sync: espeak-ng speaks texts with phone timings for talking clips (the library and its
+  # voices); pocketsphinx recognizes phones in a video's sound (the library and its US English
+  # model)
+  espeak-ng libespeak-ng-dev libpocketsphinx-dev pocketsphinx-en-us
   # the fuzzing build (tests/fuzz, run by `./setup.sh test`): clang with libFuzzer, ASan and
   # UBSan; their runtimes (libclang-rt-14-dev) and clang's OpenMP (libomp-dev) are only
   # recommended by clang, so they are listed

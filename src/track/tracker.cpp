@@ -437,6 +437,23 @@ Tracker::Tracker(const rig::Rig& rig, std::vector<Eigen::Vector3f> region_colors
 
 Tracker::~Tracker() = default;
 
+namespace {
+
+// The rigid-pose columns the options solve: translation, and pitch, yaw (and roll) unless the
+// rotation is held; the scale when asked.
+std::vector<int> PoseColumns(const TrackerOptions& options, bool scale) {
+  std::vector<int> columns;
+  if (options.solve_rotation) {
+    columns = {rig::kPitch, rig::kYaw};
+    if (options.solve_roll) columns.push_back(rig::kRoll);
+  }
+  columns.insert(columns.end(), {rig::kTx, rig::kTy, rig::kTz});
+  if (scale) columns.push_back(rig::kScale);
+  return columns;
+}
+
+}  // namespace
+
 void Tracker::HoldShapesFixed(const std::vector<int>& shapes) {
   auto drop = [&](std::vector<int>* list) {
     list->erase(std::remove_if(list->begin(), list->end(),
@@ -472,8 +489,7 @@ rig::RigidPose Tracker::PoseFromLandmarks(const TrackTarget& target,
   Impl impl(*this, target);
   BlockState state;
   state.params = rig::PackRigParams(initial_pose, weights).cast<double>();
-  state.columns = {rig::kPitch, rig::kYaw, rig::kTx, rig::kTy, rig::kTz};
-  if (options_.solve_roll) state.columns.insert(state.columns.begin() + 2, rig::kRoll);
+  state.columns = PoseColumns(options_, false);
   SolveBlock(&impl, &state, true, 20, options_, 1.);
   rig::RigidPose pose;
   Eigen::VectorXf w;
@@ -503,9 +519,7 @@ TrackResult Tracker::Solve(const TrackTarget& target, const rig::RigidPose& init
 
   BlockState state;
   state.params = rig::PackRigParams(initial_pose, initial_weights).cast<double>();
-  std::vector<int> pose_columns = {rig::kPitch, rig::kYaw, rig::kTx, rig::kTy, rig::kTz};
-  if (options_.solve_roll) pose_columns.insert(pose_columns.begin() + 2, rig::kRoll);
-  if (options_.solve_scale) pose_columns.push_back(rig::kScale);
+  const std::vector<int> pose_columns = PoseColumns(options_, options_.solve_scale);
   std::vector<int> jaw_columns, other_columns;
   for (int s : jaw_shapes_) jaw_columns.push_back(rig::kNumPoseParams + s);
   for (int s : other_shapes_) other_columns.push_back(rig::kNumPoseParams + s);

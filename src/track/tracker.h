@@ -55,7 +55,9 @@ struct TrackerOptions {
   int pose_iterations = 8;
   int jaw_iterations = 6;
   int expression_iterations = 10;
-  // Solve roll and the uniform scale of P_rigid besides pitch, yaw and translation.
+  // Solve the rotation of P_rigid (false: held at its initial value, the translation alone
+  // solved), roll besides pitch and yaw, and the uniform scale.
+  bool solve_rotation = true;
   bool solve_roll = true;
   bool solve_scale = false;
   // lambda of the L2 prior lambda |w|^2 towards the neutral on the solved weights, relative
@@ -96,6 +98,8 @@ struct TrackerOptions {
     v("jaw_iterations", jaw_iterations, "Ceres iterations of each jaw-controls block solve");
     v("expression_iterations", expression_iterations,
       "Ceres iterations of each solve of the remaining controls");
+    v("solve_rotation", solve_rotation,
+      "solve the rotation of the rigid pose (false: held at its start, the position solved)");
     v("solve_roll", solve_roll, "solve the roll angle of the rigid pose");
     v("solve_scale", solve_scale, "solve the uniform scale of the rigid pose");
     v("weight_prior", weight_prior, "L2 prior lambda |w|^2 towards the neutral (0: off)");
