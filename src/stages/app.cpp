@@ -27,6 +27,7 @@ void RegisterAll(CLI::App* app, AppState* state) {
   RegisterEval(app, state);
   RegisterTextures(app, state);
   RegisterTexturesNetworks(app, state);
+  RegisterLipsync(app, state);
   RegisterRun(app, state);
 }
 

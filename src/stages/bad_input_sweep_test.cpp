@@ -29,6 +29,7 @@ namespace {
 namespace fs = std::filesystem;
 
 const char* const kDlibModel = "/usr/share/dlib/shape_predictor_68_face_landmarks.dat";
+const char* const kPocketsphinxModel = "/usr/share/pocketsphinx/model/en-us";
 
 std::string Quote(const std::string& s) { return "'" + s + "'"; }
 
@@ -114,13 +115,22 @@ const std::map<std::string, StageInputs>& ValidRuns() {
         {}}},
       {"eval.landmarks",
        {{{"frames", "frames.h5"}, {"track", "track.h5"}, {"rig", "rig.h5"}}, "", {}}},
+      {"lipsync.track",
+       {{{"rig", "rig.h5"}, {"targets", "clip.h5"}, {"frames", ""}}, "--count 2 --levels 1", {}}},
+      {"lipsync.blend",
+       {{{"track", "clip_track.h5"}, {"mouth", "clip_track.h5"}, {"video", "clip.mp4"},
+         {"mouth_video", "clip.mp4"}}, "", {}}},
+      {"eval.lipsync", {{{"truth", "clip.h5"}, {"tracks", "clip_track.h5"}}, "", {}}},
+      {"lipsync.audio",
+       {{{"video", "clip.mp4"}, {"rig", "rig.h5"}, {"model_dir", kPocketsphinxModel}}, "", {}}},
   };
   return runs;
 }
 
 // Input options that name folders.
 bool IsFolderInput(const std::string& key) {
-  return key == "obj_dir" || key == "images" || key == "renders" || key == "background_folder";
+  return key == "obj_dir" || key == "images" || key == "renders" || key == "background_folder" ||
+         key == "model_dir";
 }
 
 std::string NameFor(OutputKind kind) {
@@ -131,6 +141,7 @@ std::string NameFor(OutputKind kind) {
     case OutputKind::kGltf: return "out.glb";
     case OutputKind::kMesh: return "out.obj";
     case OutputKind::kCsv: return "out.csv";
+    case OutputKind::kAudio: return "out.wav";
     case OutputKind::kText: return "out.json";
     case OutputKind::kFolder: return "outdir";
   }
@@ -149,10 +160,12 @@ class BadInputSweep : public ::testing::Test {
     const std::vector<std::string> steps = {
         "rig demo --out rig.h5",
         "synth samples --rig rig.h5 --out samples.h5 --count 4 --size 64",
-        "synth clip --rig rig.h5 --out clip.h5 --video --frames 6 --size 192 --identity-seed 7",
+        "synth clip --rig rig.h5 --out clip.h5 --video --frames 6 --size 192 --identity-seed 7 "
+        "--speech 'Hello there.' --speech-start-seconds 0",
         "ingest --video clip.mp4 --out frames.h5 --threads 1",
         "track --rig rig.h5 --targets samples.h5 --targets-dataset /samples/segmentation "
         "--out track.h5",
+        "track --rig rig.h5 --targets clip.h5 --out clip_track.h5 --levels 1 --epochs 1",
         "deepfake train --a samples.h5 --b clip.h5 --out deepfake.h5 --steps 1 --batch 2",
         "scans synth --out scans.h5 --people 4 --test-people 1 --threads 1",
         "blendshapes train --scans scans.h5 --out bsgen.h5 --estimation-epochs 1 "

@@ -186,6 +186,8 @@ void RegisterEval(CLI::App* app, AppState* state);
 void RegisterTextures(CLI::App* app, AppState* state);
 // `textures train` and `textures infer`, under the `textures` subcommand.
 void RegisterTexturesNetworks(CLI::App* app, AppState* state);
+// `lipsync blend` and `eval lipsync` (`lipsync track` is registered with track).
+void RegisterLipsync(CLI::App* app, AppState* state);
 // Subcommand `name` (eval, export) of `app`, added with `description` on first use: several
 // files register subcommands under it.
 CLI::App* GroupSubcommand(CLI::App* app, const std::string& name, const std::string& description);

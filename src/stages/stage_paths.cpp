@@ -47,6 +47,7 @@ std::vector<std::string> Extensions(OutputKind kind) {
     case OutputKind::kGltf: return {".glb", ".gltf"};
     case OutputKind::kMesh: return {".obj", ".glb", ".gltf"};
     case OutputKind::kCsv: return {".csv"};
+    case OutputKind::kAudio: return {".wav"};
     case OutputKind::kText:
     case OutputKind::kFolder: return {};
   }

@@ -18,6 +18,7 @@ enum class OutputKind {
   kGltf,    // .glb or .gltf
   kMesh,    // .obj, .glb or .gltf
   kCsv,     // .csv
+  kAudio,   // .wav
   kText,    // any name (JSON, Markdown)
   kFolder,  // a folder (made when absent)
 };

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "io/audio.h"
 #include "io/image_io.h"
 #include "io/rig_io.h"
 #include "io/texture_file.h"
@@ -18,6 +19,7 @@
 #include "stages/resumable.h"
 #include "synth/appearance.h"
 #include "synth/clip.h"
+#include "synth/speech.h"
 #include "util/bytes.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -37,11 +39,15 @@ struct SynthClipOptions {
   std::string background_folder;     // photos for the background ("": procedural backgrounds)
   int batch = 8;                     // frames per rank per round (a checkpoint per round)
   int threads = 0;                   // OpenMP threads per rank (0: cores / ranks on the node)
+  std::string speech;                // text the person speaks ("": no speech)
+  std::string voice = "en";          // espeak-ng voice of the speech
+  float speech_start_seconds = 0.5f; // when the speech starts in the clip
+  bool lips_view = false;            // the frontal lip-sync view of the performance
   synth::ClipOptions clip;           // the performance, appearance and camera
 
   // --help's sections, by the first key of each.
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
-    return {{"rig", "Input and output"}, {"frames", "Clip"}, {"identity_seed", "Person and seeds"},
+    return {{"rig", "Input and output"}, {"speech", "Speech"}, {"frames", "Clip"}, {"identity_seed", "Person and seeds"},
             {"expression_seconds", "Expressions"}, {"pose_seconds", "Head motion"},
             {"light_period_seconds", "Lighting"}, {"texture_size", "Skin texture"},
             {"exposure_min", "Camera degradations"}};
@@ -56,6 +62,15 @@ struct SynthClipOptions {
       "empty: procedural backgrounds");
     v("batch", batch, "frames per rank per round; each round is a checkpoint");
     v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
+    v("speech", speech,
+      "text the person speaks (espeak-ng): the mouth controls follow the phones by the "
+      "person's own coarticulation, the phones and audio are kept as truth, and the mp4 "
+      "carries the sound (also written as a WAV beside out); empty: no speech");
+    v("voice", voice, "espeak-ng voice of the speech (en, en-us, en+f3, ...; espeak-ng --voices)");
+    v("speech_start_seconds", speech_start_seconds, "time in the clip at which the speech starts");
+    v("lips_view", lips_view,
+      "film the frontal view a lip-sync source gives: the head frontal and still, every "
+      "control outside the mouth at the neutral, the same speech");
     clip.Visit(v);
   }
   void DerivedOutputs(std::vector<NamedPath>* outputs) const {
@@ -64,11 +79,18 @@ struct SynthClipOptions {
                           std::filesystem::path(out).replace_extension(".mp4").string(),
                           OutputKind::kVideo});
     }
+    if (!speech.empty()) {
+      outputs->push_back({"speech audio (out with .wav)",
+                          std::filesystem::path(out).replace_extension(".wav").string(),
+                          OutputKind::kAudio});
+    }
   }
   bool Check(std::string* why) const {
     if (batch <= 0) { *why = "batch must be positive"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
     if (out.empty()) { *why = "out must name a file"; return false; }
+    if (speech_start_seconds < 0.f) { *why = "speech_start_seconds must be >= 0"; return false; }
+    if (lips_view && speech.empty()) { *why = "lips_view needs a speech"; return false; }
     return clip.Check(why);
   }
 };
@@ -206,6 +228,12 @@ class SynthClipRun {
       }
       person_ = rig::WithIdentity(rig, co_.identity_seed, co_.identity_magnitude);
       trajectory_ = synth::MakeClipTrajectory(person_, co_);
+      if (!o_.speech.empty()) {
+        speech_ = synth::Speak(o_.speech, o_.voice);
+        speech_.phones = synth::ShiftPhones(speech_.phones, o_.speech_start_seconds);
+        synth::ApplySpeech(person_, speech_.phones, synth::SpeakerStyleOf(co_.identity_seed),
+                           co_.fps, o_.lips_view, &trajectory_);
+      }
       photo_ = BackgroundPhoto(o_.background_folder, co_.background_seed);
       renderer_ = std::make_unique<synth::ClipRenderer>(person_, co_, &photo_);
     });
@@ -240,6 +268,47 @@ class SynthClipRun {
     WriteIdentity(f, person_, co_, renderer_->colors());
     io::WriteColorTexture(f, io::kTrueAlbedoPath, renderer_->albedo_texture());
     io::WriteRig(person_, f, "/rig");
+    if (!o_.speech.empty()) WriteSpeech(f);
+  }
+
+  // The speech's truth: its phones with times in the clip's clock and their visemes, and the
+  // sound of the whole clip.
+  void WriteSpeech(io::H5File* f) {
+    std::vector<std::string> names;
+    Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> times(speech_.phones.size(), 2);
+    std::vector<int> visemes;
+    for (size_t i = 0; i < speech_.phones.size(); ++i) {
+      names.push_back(speech_.phones[i].phone);
+      times(i, 0) = speech_.phones[i].start;
+      times(i, 1) = speech_.phones[i].end;
+      visemes.push_back(speech_.phones[i].viseme);
+    }
+    f->WriteStrings("/speech/phones", names);
+    f->SetAttribute("/speech/phones", "alphabet", std::string("IPA (espeak-ng)"));
+    f->WriteMatrix("/speech/times", times);
+    f->SetAttribute("/speech/times", "columns", std::string("start, end (s, the clip's clock)"));
+    f->WriteVector<int>("/speech/visemes", visemes);
+    f->SetAttribute("/speech/visemes", "names", std::string(
+        "sil, PP, FF, TH, DD, kk, CH, SS, nn, RR, aa, E, ih, oh, ou"));
+    f->SetAttribute("/speech/phones", "text", o_.speech);
+    f->SetAttribute("/speech/phones", "voice", o_.voice);
+    const io::Audio audio = ClipAudio();
+    f->WriteVector<float>("/audio/samples", audio.samples);
+    f->SetAttribute("/audio/samples", "rate", static_cast<int64_t>(audio.rate));
+    f->SetAttribute("/audio/samples", "units", std::string("mono, [-1, 1]"));
+  }
+
+  // The clip's sound: silence, the speech from speech_start_seconds, silence to the end.
+  io::Audio ClipAudio() const {
+    io::Audio audio;
+    audio.rate = speech_.rate;
+    const int64_t length = static_cast<int64_t>(std::ceil(co_.frames / co_.fps * audio.rate));
+    const int64_t start = static_cast<int64_t>(std::lround(o_.speech_start_seconds * audio.rate));
+    audio.samples.assign(length, 0.f);
+    for (int64_t i = 0; i < static_cast<int64_t>(speech_.samples.size()) && start + i < length; ++i) {
+      audio.samples[start + i] = speech_.samples[i];
+    }
+    return audio;
   }
 
   // Renders frame `index`: the wild image, segmentation, pose, weights, landmarks, degradation.
@@ -322,6 +391,12 @@ class SynthClipRun {
         FC_INFO("synth clip: {} is up to date", video);
       } else {
         WriteFramesVideo(o_.out, video, co_.fps, "synth clip");
+        if (!o_.speech.empty()) {
+          const std::string wav = std::filesystem::path(o_.out).replace_extension(".wav").string();
+          io::WriteWav(wav, ClipAudio());
+          io::MuxAudio(video, wav, video);
+          FC_INFO("synth clip: the speech ({}) -> {} and the sound track of {}", o_.voice, wav, video);
+        }
       }
     });
   }
@@ -333,6 +408,7 @@ class SynthClipRun {
   const dist::Comm& comm_;
   rig::Rig person_;
   std::vector<synth::ClipFrameParams> trajectory_;
+  synth::SpeechAudio speech_;  // with speech: the audio and phones (clip clock)
   Image8 photo_;  // the renderer's background photo
   std::unique_ptr<synth::ClipRenderer> renderer_;
   int S_ = 0;

@@ -8,6 +8,7 @@
 
 #include "io/hdf5.h"
 #include "io/rig_io.h"
+#include "lipsync/visemes.h"
 #include "render/framing.h"
 #include "stages/ingested_frames.h"
 #include "stages/person_file.h"
@@ -57,6 +58,11 @@ struct TrackOptions {
   // per region, targets recoloured region by region: the realistic-texture baseline).
   std::string texture = "segmentation";
   int count = 0;                          // frames to track from the first (0: all)
+  // A frontal source (a lip-sync network's output, a frontal camera): the head's rotation is
+  // held frontal to the source camera and only its position solved.
+  bool frontal = false;
+  // The only controls solved; the others stay at the neutral (empty: all).
+  std::vector<std::string> solve_controls;
   int batch = 16;                         // work units per rank per round (a checkpoint each)
   int threads = 0;                        // OpenMP threads per rank (0: cores / node ranks)
   track::TrackerOptions tracker = TrackStageSolverDefaults();  // the solver
@@ -80,6 +86,10 @@ struct TrackOptions {
     v("segment_frames", segment_frames, "frames per sequential segment when init = previous");
     v("texture", texture, "texture of model and targets: segmentation | skin");
     v("count", count, "frames to track from the first (0: all)");
+    v("frontal", frontal,
+      "hold the head frontal to the source camera (rotation 0) and solve its position only");
+    v("solve_controls", solve_controls,
+      "the only controls solved, by name; every other control stays at the neutral (empty: all)");
     v("batch", batch, "work units per rank per round; each round is a checkpoint");
     v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
     tracker.Visit(v);
@@ -238,7 +248,9 @@ class TrackRun {
   void Run() {
     ReadInputs();
     PlanFrames();
-    tracker_ = std::make_unique<const track::Tracker>(rig_, model_colors_, SolverOptions());
+    auto tracker = std::make_unique<track::Tracker>(rig_, model_colors_, SolverOptions());
+    if (!o_.solve_controls.empty()) tracker->HoldShapesFixed(held_shapes_);
+    tracker_ = std::move(tracker);
     if (OpenOutput()) return;
     // Every rank reads its targets; HDF5 reads are serialized within the rank.
     dist::CoordinateExceptions(comm_, [&] { targets_file_ = io::H5File::OpenRead(o_.targets); });
@@ -265,6 +277,7 @@ class TrackRun {
       std::string why;
       if (!o_.Check(&why)) throw InvalidInputError("track: " + why);
       rig_ = io::ReadRigFile(o_.rig);
+      held_shapes_ = HeldShapes();
       info_ = InspectTargets(o_.targets, o_.targets_dataset, !crops_);
       if (crops_) {
         ingested_ = IngestedFrames::Read(o_.frames);
@@ -284,6 +297,27 @@ class TrackRun {
                           "frames)");
       }
     });
+  }
+
+  // The shapes outside solve_controls; InvalidInputError for a name the rig does not have.
+  std::vector<int> HeldShapes() const {
+    if (o_.solve_controls.empty()) return {};
+    std::vector<char> solved(rig_.NumShapes(), 0);
+    std::string unknown;
+    for (const std::string& name : o_.solve_controls) {
+      const int s = rig_.ShapeIndex(name);
+      if (s < 0) unknown += (unknown.empty() ? "" : ", ") + name;
+      else solved[s] = 1;
+    }
+    if (!unknown.empty()) {
+      throw InvalidInputError("track: solve_controls names controls that " + o_.rig +
+                              " does not have: " + unknown);
+    }
+    std::vector<int> held;
+    for (int s = 0; s < rig_.NumShapes(); ++s) {
+      if (!solved[s]) held.push_back(s);
+    }
+    return held;
   }
 
   // Frames, work units, the output camera, the framing distance and the region colours.
@@ -308,6 +342,7 @@ class TrackRun {
   // targets of their own (rig samples) are tracked without it.
   track::TrackerOptions SolverOptions() {
     track::TrackerOptions tracker_options = o_.tracker;
+    if (o_.frontal) tracker_options.solve_rotation = false;
     if (!crops_) tracker_options.landmark_weight = 0.f;
     if (tracker_options.landmark_weight <= 0.f) return tracker_options;
     LandmarkNoise noise;
@@ -443,6 +478,12 @@ class TrackRun {
         start = crops_ ? NeutralPoseIn(ft.target.camera) : neutral_pose_;
         weights = neutral_weights_;
       }
+      if (o_.frontal) {
+        // Frontal to the source camera, seen in the crop's camera.
+        rig::RigidPose in_source = PoseInSource(start, ft.view);
+        in_source.pitch = in_source.yaw = in_source.roll = 0.f;
+        start = PoseInCrop(in_source, ft.view);
+      }
       if (from_landmarks) start = tracker_->PoseFromLandmarks(ft.target, start, neutral_weights_);
       const track::TrackResult r = tracker_->Solve(ft.target, start, weights);
       pose = PoseInSource(r.pose, ft.view);
@@ -506,12 +547,29 @@ class TrackRun {
   std::mutex read_mutex_;
   Eigen::VectorXf neutral_weights_;
   rig::RigidPose neutral_pose_;
+  std::vector<int> held_shapes_;  // shapes outside solve_controls
 };
 
 void RunTrack(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
   const auto o = ResolveStageOptions<TrackOptions>(flags, &ctx, &resolved);
+  TrackRun(o, ctx, resolved).Run();
+}
+
+// [lipsync.track]: the track stage set up for a frontal lip source.
+struct LipsyncTrackOptions : TrackOptions {
+  LipsyncTrackOptions() {
+    frontal = true;
+    solve_controls = lipsync::DefaultMouthControls();
+    init = "previous";
+  }
+};
+
+void RunLipsyncTrack(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<LipsyncTrackOptions>(flags, &ctx, &resolved);
   TrackRun(o, ctx, resolved).Run();
 }
 
@@ -526,6 +584,17 @@ void RegisterTrack(CLI::App* app, AppState* state) {
       "queue, identical for any rank count, resumable",
       PathKeys{{"rig", "targets", "frames"}, {{"out", OutputKind::kHdf5}}},
       RunTrack);
+  CLI::App* lipsync = GroupSubcommand(
+      app, "lipsync", "Lip-sync (paper 000 Sec. 8.1): the mouth from a second source, blended "
+      "into the video's solve");
+  AddStage<LipsyncTrackOptions>(
+      lipsync, state, "track", "lipsync.track", "lipsync track",
+      "The mouth of a frontal lip video (a lip-sync network's output, a second camera): "
+      "ingested and translated as any footage (its frames and translations), then solved as "
+      "track does with the head held frontal (its position solved) and every control outside "
+      "the mouth group (solve_controls) at the neutral; writes a track file for lipsync blend",
+      PathKeys{{"rig", "targets", "frames"}, {{"out", OutputKind::kHdf5}}},
+      RunLipsyncTrack);
 }
 
 }  // namespace facecap::stages

@@ -1,0 +1,523 @@
+// facecap lipsync blend: the mouth controls of a second source (a frontal lip video solved by
+// lipsync track) blended into the video's solve, aligned in time by the sound of both videos.
+// facecap lipsync audio: a mouth source from the video's own sound (phones recognized by
+// pocketsphinx, visemes, dominance coarticulation).
+// facecap eval lipsync: mouth and upper-face control errors, pose error and lip-closure
+// detection of tracks against a talking clip's truth, beside the neutral mouth.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+
+#include "dist/comm.h"
+#include "io/atomic_file.h"
+#include "io/audio.h"
+#include "io/hdf5.h"
+#include "io/rig_io.h"
+#include "lipsync/audio_align.h"
+#include "lipsync/phone_recognizer.h"
+#include "lipsync/speech_track.h"
+#include "lipsync/visemes.h"
+#include "rig/pose.h"
+#include "stages/cli.h"
+#include "stages/registry.h"
+#include "util/errors.h"
+#include "util/json.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+namespace {
+
+using RowMatrixF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// What lip-sync reads of a track file: names, weights, poses and the time of every frame.
+struct TrackTimeline {
+  std::vector<std::string> names;
+  RowMatrixF weights;                 // frames x names
+  RowMatrixF pose;                    // frames x 3 (pitch, yaw, roll)
+  std::vector<int32_t> termination;   // 3: no face, the previous solution held
+  std::vector<double> times;          // seconds from the start of the video
+  std::vector<int64_t> source_index;  // the source video's frame of each row
+
+  int64_t frames() const { return weights.rows(); }
+  bool Solved(int64_t f) const { return termination[f] != 3; }
+  int Column(const std::string& name) const {
+    const auto it = std::find(names.begin(), names.end(), name);
+    return it == names.end() ? -1 : static_cast<int>(it - names.begin());
+  }
+};
+
+TrackTimeline ReadTimeline(const std::string& path) {
+  io::H5File f = io::H5File::OpenRead(path);
+  for (const char* name : {"/track/shape_names", "/track/weights", "/track/pose", "/track/termination"}) {
+    if (!f.Exists(name)) throw FileIOError(path + ": no " + std::string(name) + " (not a track file?)");
+  }
+  TrackTimeline t;
+  t.names = f.ReadStrings("/track/shape_names");
+  t.weights = f.ReadMatrix<float>("/track/weights");
+  const int64_t n = t.weights.rows();
+  if (t.weights.cols() != static_cast<int64_t>(t.names.size())) {
+    throw FileIOError(path + ": /track/weights has " + std::to_string(t.weights.cols()) +
+                      " columns for " + std::to_string(t.names.size()) + " shape names");
+  }
+  f.CheckShape("/track/pose", {n, 3});
+  t.pose = f.ReadMatrix<float>("/track/pose");
+  t.termination = f.ReadVector<int32_t>("/track/termination", n);
+  if (f.Exists("/track/timecode")) {
+    t.times = f.ReadVector<double>("/track/timecode", n);
+  } else {
+    const double fps = f.HasAttribute("/track", "fps") ? f.GetDoubleAttribute("/track", "fps") : 0.;
+    if (!(fps > 0.)) throw FileIOError(path + ": neither /track/timecode nor a frame rate (/track@fps)");
+    for (int64_t i = 0; i < n; ++i) t.times.push_back(i / fps);
+  }
+  if (f.Exists("/track/source_index")) {
+    t.source_index = f.ReadVector<int64_t>("/track/source_index", n);
+  } else {
+    for (int64_t i = 0; i < n; ++i) t.source_index.push_back(i);
+  }
+  for (int64_t i = 0; i < n; ++i) {
+    if (!std::isfinite(t.times[i]) || (i > 0 && t.times[i] <= t.times[i - 1])) {
+      throw FileIOError(path + ": the frame times are not finite and ascending at frame " + std::to_string(i));
+    }
+  }
+  if (!t.weights.allFinite()) throw FileIOError(path + ": /track/weights holds non-finite values");
+  return t;
+}
+
+// [lipsync.blend]
+struct LipsyncBlendOptions {
+  std::string track = "track.h5";    // the video's solve
+  std::string mouth = "mouth.h5";    // the mouth source's track
+  std::string out = "blended.h5";    // the blended track
+  std::string video = "";            // the video with its sound (alignment)
+  std::string mouth_video = "";      // the mouth source's video with its sound (alignment)
+  double offset_seconds = 0.;        // without the two videos: the mouth source's delay
+  double max_offset_seconds = 2.;    // alignment searches [-max, max]
+  std::vector<std::string> mouth_controls = lipsync::DefaultMouthControls();
+  std::vector<float> crossfade = {1.f};  // one for every mouth control, or one each
+
+  template <class V>
+  void Visit(V&& v) {
+    v("track", track, "the video's solve (track.h5 from track)");
+    v("mouth", mouth, "the mouth source's track (lipsync track of a lip video)");
+    v("out", out, "the blended track (HDF5; every export and eval takes it)");
+    v("video", video,
+      "the tracked video, with sound: with mouth_video, the offset is measured from the two "
+      "sound tracks (empty: offset_seconds)");
+    v("mouth_video", mouth_video, "the mouth source's video, with the same sound");
+    v("offset_seconds", offset_seconds,
+      "without the two videos: how much later the mouth source's clock runs (s)");
+    v("max_offset_seconds", max_offset_seconds, "the alignment searches offsets up to this (s)");
+    v("mouth_controls", mouth_controls, "the controls taken from the mouth source, by name");
+    v("crossfade", crossfade,
+      "per mouth control, the mouth source's share in [0, 1] (one value: every control)");
+  }
+  bool Check(std::string* why) const {
+    if (crossfade.size() != 1 && crossfade.size() != mouth_controls.size()) {
+      *why = "crossfade needs one value or one per mouth control (" +
+             std::to_string(mouth_controls.size()) + "), got " + std::to_string(crossfade.size());
+      return false;
+    }
+    for (float c : crossfade) {
+      if (!(c >= 0.f && c <= 1.f)) { *why = "crossfade values must be in [0, 1]"; return false; }
+    }
+    if (video.empty() != mouth_video.empty()) {
+      *why = "video and mouth_video go together (the offset from both sound tracks)";
+      return false;
+    }
+    if (!(max_offset_seconds > 0.)) { *why = "max_offset_seconds must be positive"; return false; }
+    return true;
+  }
+};
+
+// The offset of the mouth source: measured from the sound of both videos, or given.
+double BlendOffset(const LipsyncBlendOptions& o) {
+  if (o.video.empty()) return o.offset_seconds;
+  constexpr int kRate = 16000;
+  const io::Audio a = io::DecodeAudio(o.video, kRate);
+  const io::Audio b = io::DecodeAudio(o.mouth_video, kRate);
+  lipsync::AlignOptions align;
+  align.max_offset_seconds = o.max_offset_seconds;
+  const lipsync::AlignResult r = lipsync::EstimateOffset(a.samples, b.samples, kRate, align);
+  FC_INFO("lipsync blend: the sound of {} runs {:.1f} ms behind {}'s (correlation {:.2f})",
+          o.mouth_video, 1000. * r.offset_seconds, o.video, r.peak);
+  if (r.peak < 0.3) {
+    FC_WARN("lipsync blend: the two sound tracks correlate weakly ({:.2f}); check that they "
+            "carry the same speech, or give offset_seconds", r.peak);
+  }
+  return r.offset_seconds;
+}
+
+void RunLipsyncBlend(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<LipsyncBlendOptions>(flags, &ctx, &resolved);
+  dist::CoordinateExceptions(ctx.comm, [&] {
+    if (!ctx.comm.IsMainRank()) return;
+    std::string why;
+    if (!o.Check(&why)) throw InvalidInputError("lipsync blend: " + why);
+    const TrackTimeline video = ReadTimeline(o.track);
+    const TrackTimeline mouth = ReadTimeline(o.mouth);
+    const double offset = BlendOffset(o);
+    // The mouth source's solved frames, and its values at the video's times plus the offset.
+    std::vector<double> mouth_times;
+    std::vector<int> rows;
+    for (int64_t f = 0; f < mouth.frames(); ++f) {
+      if (mouth.Solved(f)) {
+        rows.push_back(static_cast<int>(f));
+        mouth_times.push_back(mouth.times[f]);
+      }
+    }
+    if (rows.empty()) throw FileIOError(o.mouth + ": no frame of the mouth source was solved");
+    std::vector<double> at;
+    for (double t : video.times) at.push_back(t + offset);
+    // Columns: the mouth controls both tracks have.
+    const int64_t F = video.frames();
+    const int S = static_cast<int>(video.names.size());
+    Eigen::MatrixXf source(static_cast<int>(rows.size()), S);
+    source.setZero();
+    Eigen::VectorXf crossfade = Eigen::VectorXf::Zero(S);
+    int blended = 0;
+    for (size_t k = 0; k < o.mouth_controls.size(); ++k) {
+      const int vc = video.Column(o.mouth_controls[k]), mc = mouth.Column(o.mouth_controls[k]);
+      if (vc < 0 || mc < 0) continue;
+      for (size_t r = 0; r < rows.size(); ++r) source(static_cast<int>(r), vc) = mouth.weights(rows[r], mc);
+      crossfade[vc] = o.crossfade.size() == 1 ? o.crossfade[0] : o.crossfade[k];
+      ++blended;
+    }
+    if (blended == 0) {
+      throw FileIOError(o.mouth + " and " + o.track + " share none of the mouth controls");
+    }
+    std::vector<char> inside;
+    const Eigen::MatrixXf mouth_at = lipsync::ResampleAtTimes(source, mouth_times, at, &inside);
+    const Eigen::MatrixXf video_w = video.weights.cast<float>();
+    Eigen::MatrixXf out = lipsync::BlendControls(video_w, mouth_at, crossfade);
+    // Outside the mouth source's time span the video's solve stands.
+    int64_t covered = 0;
+    for (int64_t f = 0; f < F; ++f) {
+      if (inside[f]) ++covered;
+      else out.row(f) = video_w.row(f);
+    }
+    // The video's track file with the blended weights, written beside out and renamed.
+    const std::string partial = io::H5File::PartialPath(o.out);
+    std::error_code ec;
+    std::filesystem::copy_file(o.track, partial, std::filesystem::copy_options::overwrite_existing, ec);
+    if (ec) throw OutputError(partial + ": cannot copy " + o.track + ": " + ec.message());
+    {
+      io::H5File f = io::H5File::OpenReadWrite(partial);
+      const RowMatrixF row_major = out;
+      f.WriteFrames<float>("/track/weights", 0, F, row_major.data());
+      f.SetAttribute("/track", "lipsync_mouth", o.mouth);
+      f.SetAttribute("/track", "lipsync_offset_seconds", offset);
+      f.WriteProvenance(MakeProvenance(ctx, "lipsync blend", resolved));
+      f.Close();
+    }
+    std::filesystem::rename(partial, o.out, ec);
+    if (ec) throw OutputError(o.out + ": cannot rename " + partial + ": " + ec.message());
+    FC_INFO("lipsync blend: {} mouth controls of {} over {} of {} frames (offset {:.1f} ms) -> {}",
+            blended, o.mouth, covered, F, 1000. * offset, o.out);
+  });
+}
+
+// [lipsync.audio]
+struct LipsyncAudioOptions {
+  std::string video = "video.mp4";   // the video whose sound is spoken
+  std::string rig = "rig.h5";        // the rig whose mouth controls are written
+  std::string out = "mouth_audio.h5";
+  std::string transcript = "";       // the words spoken, when known
+  double fps = 30.;                  // frames per second of the mouth track
+  std::string model_dir = lipsync::RecognizerOptions().model_dir;
+  lipsync::DominanceOptions dominance;
+
+  template <class V>
+  void Visit(V&& v) {
+    v("video", video, "the video (or audio file) whose sound is the speech");
+    v("rig", rig, "the rig whose mouth controls the track names (person fit's rig)");
+    v("out", out, "the mouth track (HDF5) for lipsync blend");
+    v("transcript", transcript,
+      "the words spoken, when known: aligned to the sound with a grammar of exactly these "
+      "words (empty: phones recognized freely)");
+    v("fps", fps, "frames per second of the mouth track");
+    v("model_dir", model_dir, "pocketsphinx's English model folder (Debian: pocketsphinx-en-us)");
+    v("kappa", dominance.kappa, "exponent of the dominance functions");
+    v("hold", dominance.hold, "middle fraction of a phone where its dominance is full");
+    v("spread", dominance.spread, "a phone's dominance reaches this fraction of its duration further");
+    v("tau0", dominance.tau0, "seconds added to every phone's dominance reach");
+    v("amplitude", dominance.amplitude, "scale of the visemes' mouth poses");
+  }
+  bool Check(std::string* why) const {
+    if (!(fps > 0. && fps <= 1000.)) { *why = "fps must be in (0, 1000]"; return false; }
+    if (!(dominance.kappa > 0.f) || !(dominance.spread >= 0.f) || !(dominance.tau0 > 0.f) ||
+        !(dominance.hold >= 0.f && dominance.hold <= 1.f) || !(dominance.amplitude >= 0.f)) {
+      *why = "kappa and tau0 must be positive, spread and amplitude >= 0, hold in [0, 1]";
+      return false;
+    }
+    return true;
+  }
+};
+
+void RunLipsyncAudio(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<LipsyncAudioOptions>(flags, &ctx, &resolved);
+  dist::CoordinateExceptions(ctx.comm, [&] {
+    if (!ctx.comm.IsMainRank()) return;
+    std::string why;
+    if (!o.Check(&why)) throw InvalidInputError("lipsync audio: " + why);
+    const rig::Rig rig = io::ReadRigFile(o.rig);
+    std::vector<std::string> names;
+    for (const auto& shape : rig.shapes) names.push_back(shape.name);
+    if (lipsync::ShapeIndices(names, lipsync::DefaultMouthControls()).empty()) {
+      throw FileIOError(o.rig + ": the rig has none of the ARKit mouth controls (jawOpen, mouth*)");
+    }
+    const io::Audio sound = io::DecodeAudio(o.video, lipsync::kRecognizerRate);
+    lipsync::RecognizerOptions recognizer;
+    recognizer.model_dir = o.model_dir;
+    recognizer.transcript = o.transcript;
+    const std::vector<lipsync::PhoneSegment> phones = lipsync::RecognizePhones(sound.samples, recognizer);
+    const double seconds = static_cast<double>(sound.samples.size()) / sound.rate;
+    const int frames = std::max(1, static_cast<int>(std::ceil(seconds * o.fps)));
+    const Eigen::MatrixXf mouth = lipsync::MouthFromPhones(phones, names, frames, o.fps, o.dominance);
+    io::H5File f = io::H5File::CreateAtomic(o.out);
+    f.WriteStrings("/track/shape_names", names);
+    f.WriteMatrix("/track/weights", RowMatrixF(mouth));
+    f.WriteMatrix("/track/pose", RowMatrixF::Zero(frames, 3));
+    f.SetAttribute("/track/pose", "meaning", std::string("none: a mouth source has no head pose"));
+    f.WriteVector<int32_t>("/track/termination", std::vector<int32_t>(frames, 0));
+    std::vector<double> timecode(frames);
+    for (int i = 0; i < frames; ++i) timecode[i] = i / o.fps;
+    f.WriteVector<double>("/track/timecode", timecode);
+    f.SetAttribute("/track/timecode", "units", std::string("seconds from the start of the sound"));
+    f.SetAttribute("/track", "fps", o.fps);
+    f.SetAttribute("/track", "source", o.video);
+    std::vector<std::string> phone_names;
+    Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> times(phones.size(), 2);
+    std::vector<int> visemes;
+    for (size_t i = 0; i < phones.size(); ++i) {
+      phone_names.push_back(phones[i].phone);
+      times(i, 0) = phones[i].start;
+      times(i, 1) = phones[i].end;
+      visemes.push_back(phones[i].viseme);
+    }
+    f.WriteStrings("/lipsync/phones", phone_names);
+    f.SetAttribute("/lipsync/phones", "alphabet", std::string("ARPAbet (pocketsphinx)"));
+    f.WriteMatrix("/lipsync/times", times);
+    f.WriteVector<int>("/lipsync/visemes", visemes);
+    f.WriteProvenance(MakeProvenance(ctx, "lipsync audio", resolved));
+    f.Commit();
+    int speech = 0;
+    for (const auto& p : phones) speech += p.viseme != 0;
+    FC_INFO("lipsync audio: {} phones ({} spoken) in {:.1f} s of {}{} -> {} frames of mouth controls in {}",
+            phones.size(), speech, seconds, o.video, o.transcript.empty() ? "" : " (transcript aligned)",
+            frames, o.out);
+  });
+}
+
+// [eval.lipsync]
+struct EvalLipsyncOptions {
+  std::string truth = "clip.h5";        // the talking clip (synth clip with speech)
+  std::vector<std::string> tracks;      // tracks of its video to score
+  std::vector<std::string> names;       // their row names
+  std::vector<std::string> mouth_controls = lipsync::DefaultMouthControls();
+  float closure_gap = 0.01f;            // lips closed at an inner gap at most this (IOD)
+  double closure_tolerance_seconds = 0.04;
+  bool json = true;
+  std::string out = "";
+
+  template <class V>
+  void Visit(V&& v) {
+    v("truth", truth, "the talking clip (synth clip with speech): true weights, poses and rig");
+    v("tracks", tracks, "track files of the clip's video to score");
+    v("names", names, "a row name per track (empty: the file names)");
+    v("mouth_controls", mouth_controls, "the controls scored as the mouth");
+    v("closure_gap", closure_gap,
+      "the lips are closed when their inner gap is at most this, in inter-ocular distances "
+      "(the truth's rig at each row's weights)");
+    v("closure_tolerance_seconds", closure_tolerance_seconds,
+      "a found closure counts when its centre is this close to a true one's");
+    v("json", json, "print one JSON object (false: a table)");
+    v("out", out, "also write the JSON object to this file (empty: none)");
+  }
+  bool Check(std::string* why) const {
+    if (tracks.empty()) { *why = "tracks names no track to score"; return false; }
+    if (!names.empty() && names.size() != tracks.size()) {
+      *why = "names needs one name per track";
+      return false;
+    }
+    if (!(closure_gap > 0.f)) { *why = "closure_gap must be positive"; return false; }
+    if (!(closure_tolerance_seconds > 0.)) { *why = "closure_tolerance_seconds must be positive"; return false; }
+    return true;
+  }
+};
+
+struct LipsyncRow {
+  std::string name;
+  int64_t frames = 0;
+  double mouth_mae = 0., upper_mae = 0., pose_deg = 0.;
+  lipsync::DetectionScore closures;
+};
+
+double AngleBetweenDeg(const rig::RigidPose& a, const rig::RigidPose& b) {
+  const Eigen::Matrix3d r = (a.Rotation().transpose() * b.Rotation()).cast<double>();
+  return std::acos(std::clamp((r.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
+}
+
+// What eval lipsync reads of the truth.
+struct LipsyncTruth {
+  rig::Rig rig;
+  std::vector<std::string> names;
+  RowMatrixF weights, pose;
+  double fps = 0.;
+};
+
+// Scores one track (rows of the clip by source index; frames without a face are held and
+// count for closures, not for the control errors).
+LipsyncRow ScoreLipsync(const EvalLipsyncOptions& o, const LipsyncTruth& truth,
+                        const TrackTimeline& track, const std::string& path, bool neutral_mouth) {
+  LipsyncRow row;
+  const int S = truth.rig.NumShapes();
+  std::vector<char> is_mouth(S, 0);
+  for (int s : lipsync::ShapeIndices(truth.names, o.mouth_controls)) is_mouth[s] = 1;
+  std::vector<int> column(S, -1);
+  for (int s = 0; s < S; ++s) column[s] = track.Column(truth.names[s]);
+  Eigen::MatrixXf truth_rows(track.frames(), S), estimate(track.frames(), S);
+  int mouth_n = 0, upper_n = 0;
+  for (int64_t f = 0; f < track.frames(); ++f) {
+    const int64_t r = track.source_index[f];
+    if (r < 0 || r >= truth.weights.rows()) {
+      throw FileIOError(path + ": frame " + std::to_string(f) + " is source frame " + std::to_string(r) +
+                        ", but " + o.truth + " has " + std::to_string(truth.weights.rows()));
+    }
+    for (int s = 0; s < S; ++s) {
+      truth_rows(f, s) = truth.weights(r, s);
+      estimate(f, s) = column[s] >= 0 ? track.weights(f, column[s]) : 0.f;
+      if (neutral_mouth && is_mouth[s]) estimate(f, s) = 0.f;
+    }
+    if (!track.Solved(f)) continue;
+    ++row.frames;
+    for (int s = 0; s < S; ++s) {
+      const double e = std::abs(estimate(f, s) - truth_rows(f, s));
+      if (is_mouth[s]) { row.mouth_mae += e; ++mouth_n; }
+      else { row.upper_mae += e; ++upper_n; }
+    }
+    rig::RigidPose a, b;
+    a.pitch = truth.pose(r, 0); a.yaw = truth.pose(r, 1); a.roll = truth.pose(r, 2);
+    b.pitch = track.pose(f, 0); b.yaw = track.pose(f, 1); b.roll = track.pose(f, 2);
+    row.pose_deg += AngleBetweenDeg(a, b);
+  }
+  row.mouth_mae /= std::max(1, mouth_n);
+  row.upper_mae /= std::max(1, upper_n);
+  row.pose_deg /= std::max<int64_t>(1, row.frames);
+  // Closures on the clip's clock: the truth rig at both rows' weights.
+  const double fps = truth.fps;
+  const std::vector<lipsync::Closure> t = lipsync::FindClosures(
+      lipsync::InnerLipGaps(truth.rig, truth_rows), o.closure_gap, fps);
+  const std::vector<lipsync::Closure> e = lipsync::FindClosures(
+      lipsync::InnerLipGaps(truth.rig, estimate), o.closure_gap, fps);
+  row.closures = lipsync::MatchClosures(t, e, o.closure_tolerance_seconds);
+  return row;
+}
+
+void RunEvalLipsync(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<EvalLipsyncOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;
+  std::string why;
+  if (!o.Check(&why)) throw InvalidInputError("eval lipsync: " + why);
+  LipsyncTruth truth;
+  {
+    io::H5File f = io::H5File::OpenRead(o.truth);
+    for (const char* name : {"/frames/weights", "/frames/shape_names", "/frames/pose", "/rig/neutral"}) {
+      if (!f.Exists(name)) throw FileIOError(o.truth + ": no " + std::string(name) + " (not a clip from synth clip?)");
+    }
+    truth.rig = io::ReadRig(f);
+    truth.names = f.ReadStrings("/frames/shape_names");
+    truth.weights = f.ReadMatrix<float>("/frames/weights");
+    truth.pose = f.ReadMatrix<float>("/frames/pose");
+    truth.fps = f.HasAttribute("/camera/intrinsics", "fps") ? f.GetDoubleAttribute("/camera/intrinsics", "fps") : 0.;
+    if (!(truth.fps > 0.)) throw FileIOError(o.truth + ": no frame rate (/camera/intrinsics@fps)");
+    if (truth.names.size() != static_cast<size_t>(truth.rig.NumShapes()) ||
+        truth.weights.cols() != truth.rig.NumShapes()) {
+      throw FileIOError(o.truth + ": its weights, shape names and rig do not agree");
+    }
+    if (!f.Exists("/speech/phones")) {
+      FC_WARN("eval lipsync: {} has no speech (/speech/phones): scoring a clip that does not talk", o.truth);
+    }
+  }
+  std::vector<LipsyncRow> rows;
+  for (size_t k = 0; k < o.tracks.size(); ++k) {
+    const TrackTimeline track = ReadTimeline(o.tracks[k]);
+    const std::string name = o.names.empty() ? std::filesystem::path(o.tracks[k]).filename().string() : o.names[k];
+    if (k == 0) {
+      LipsyncRow neutral = ScoreLipsync(o, truth, track, o.tracks[k], true);
+      neutral.name = "neutral mouth (" + name + " with every mouth control 0)";
+      rows.push_back(neutral);
+    }
+    LipsyncRow row = ScoreLipsync(o, truth, track, o.tracks[k], false);
+    row.name = name;
+    rows.push_back(row);
+  }
+  std::ostringstream js;
+  js << "{\"truth\": " << JsonString(o.truth) << ", \"closures_true\": " << rows.front().closures.truth
+     << ", \"rows\": [";
+  for (size_t k = 0; k < rows.size(); ++k) {
+    const LipsyncRow& r = rows[k];
+    js << (k ? ", " : "") << "{\"name\": " << JsonString(r.name) << ", \"frames\": " << r.frames
+       << ", \"mouth_mae\": " << JsonNumber(r.mouth_mae) << ", \"upper_mae\": " << JsonNumber(r.upper_mae)
+       << ", \"pose_err_deg\": " << JsonNumber(r.pose_deg)
+       << ", \"closures_found\": " << r.closures.found << ", \"closures_matched\": " << r.closures.matched
+       << ", \"closure_precision\": " << JsonNumber(r.closures.precision)
+       << ", \"closure_recall\": " << JsonNumber(r.closures.recall)
+       << ", \"closure_f1\": " << JsonNumber(r.closures.f1) << "}";
+  }
+  js << "]}";
+  if (o.json) {
+    std::cout << js.str() << std::endl;
+  } else {
+    std::printf("%-60s %7s %9s %9s %8s %11s\n", "row", "frames", "mouth MAE", "upper MAE", "pose deg",
+                "closure F1");
+    for (const LipsyncRow& r : rows) {
+      std::printf("%-60s %7lld %9.4f %9.4f %8.3f %5.2f (%d/%d/%d)\n", r.name.c_str(),
+                  static_cast<long long>(r.frames), r.mouth_mae, r.upper_mae, r.pose_deg, r.closures.f1,
+                  r.closures.matched, r.closures.found, r.closures.truth);
+    }
+    std::printf("closure F1 (matched / found / true): lips within %.3f IOD, centres within %.0f ms\n",
+                o.closure_gap, 1000. * o.closure_tolerance_seconds);
+  }
+  if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
+}
+
+}  // namespace
+
+void RegisterLipsync(CLI::App* app, AppState* state) {
+  CLI::App* lipsync = GroupSubcommand(
+      app, "lipsync", "Lip-sync (paper 000 Sec. 8.1): the mouth from a second source, blended "
+      "into the video's solve");
+  AddStage<LipsyncBlendOptions>(
+      lipsync, state, "blend", "lipsync.blend", "lipsync blend",
+      "The video's solve with its mouth controls cross-faded towards a mouth source's (lipsync "
+      "track of a frontal lip video), the source aligned in time by the sound of both videos "
+      "(or offset_seconds); pose and every other control stay the video's; a track file",
+      PathKeys{{"track", "mouth", "video", "mouth_video"}, {{"out", OutputKind::kHdf5}}},
+      RunLipsyncBlend);
+  AddStage<LipsyncAudioOptions>(
+      lipsync, state, "audio", "lipsync.audio", "lipsync audio",
+      "A mouth source from the video's own sound: phones recognized offline by pocketsphinx "
+      "(freely, or aligned to a transcript), mapped to visemes and to the rig's ARKit mouth "
+      "controls through dominance-function coarticulation; a track file for lipsync blend",
+      PathKeys{{"video", "rig", "model_dir"}, {{"out", OutputKind::kHdf5}}},
+      RunLipsyncAudio);
+  CLI::App* eval = EvalSubcommand(app);
+  AddStage<EvalLipsyncOptions>(
+      eval, state, "lipsync", "eval.lipsync", "eval lipsync",
+      "Tracks of a talking clip against its truth: mouth-control and upper-face-control MAE, "
+      "pose error, and lip closures (the truth rig's inner lips meeting) found within a "
+      "tolerance (F1), beside the neutral mouth",
+      PathKeys{{"truth", "tracks"}, {{"out", OutputKind::kText}}},
+      RunEvalLipsync);
+}
+
+}  // namespace facecap::stages

@@ -1,0 +1,210 @@
+// Lip-sync end to end on a talking clip and its frontal lip view, whose speech starts 137 ms
+// later: the clip's speech truth and sound track, the offset recovered from the two mp4s'
+// sound, the blend's limits (no cross-fade: the video's solve exactly; a full one: the mouth
+// source's controls at the aligned times), eval lipsync's rows, and lipsync track holding the
+// head frontal and every control outside the mouth at the neutral.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "io/audio.h"
+#include "io/hdf5.h"
+#include "lipsync/visemes.h"
+#include "testing/testing.h"
+#include "util/errors.h"
+
+namespace facecap::stages {
+namespace {
+
+using testing::RunFacecap;
+using RowMatrixF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+constexpr double kOffset = 0.137;
+constexpr int kFrames = 75;
+
+class Lipsync : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    auto r = RunFacecap("rig demo --num-identity-modes 8 --out " + File("rig.h5"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    const std::string common = "synth clip --rig " + File("rig.h5") + " --frames " +
+                               std::to_string(kFrames) + " --size 64 --texture-size 128 "
+                               "--identity-seed 3 --video --speech 'Bob made a map of Paris.' ";
+    r = RunFacecap(common + "--speech-start-seconds 0.3 --out " + File("talk.h5"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    r = RunFacecap(common + "--speech-start-seconds " + std::to_string(0.3 + kOffset) +
+                   " --lips-view --out " + File("lips.h5"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    // Tracks made of the truth: the video's solve with its mouth at the neutral, and the lip
+    // view's mouth.
+    WriteTruthTrack(File("talk.h5"), File("video_track.h5"), true);
+    WriteTruthTrack(File("lips.h5"), File("mouth_track.h5"), false);
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static std::string File(const std::string& name) { return dir_->File(name); }
+
+  static void WriteTruthTrack(const std::string& clip, const std::string& out, bool neutral_mouth) {
+    io::H5File c = io::H5File::OpenRead(clip);
+    const auto names = c.ReadStrings("/frames/shape_names");
+    RowMatrixF w = c.ReadMatrix<float>("/frames/weights");
+    if (neutral_mouth) {
+      for (size_t s = 0; s < names.size(); ++s) {
+        const auto& mouth = lipsync::DefaultMouthControls();
+        if (std::find(mouth.begin(), mouth.end(), names[s]) != mouth.end()) w.col(s).setZero();
+      }
+    }
+    const double fps = c.GetDoubleAttribute("/camera/intrinsics", "fps");
+    io::H5File f = io::H5File::CreateAtomic(out);
+    f.WriteStrings("/track/shape_names", names);
+    f.WriteMatrix("/track/weights", w);
+    f.WriteMatrix("/track/pose", c.ReadMatrix<float>("/frames/pose"));
+    f.WriteVector<int32_t>("/track/termination", std::vector<int32_t>(w.rows(), 0));
+    std::vector<double> timecode;
+    for (int i = 0; i < w.rows(); ++i) timecode.push_back(i / fps);
+    f.WriteVector<double>("/track/timecode", timecode);
+    f.Commit();
+  }
+  static RowMatrixF Weights(const std::string& path, const std::string& name = "/track/weights") {
+    return io::H5File::OpenRead(path).ReadMatrix<float>(name);
+  }
+  static std::vector<int> MouthColumns(const std::string& clip) {
+    const auto names = io::H5File::OpenRead(clip).ReadStrings("/frames/shape_names");
+    std::vector<int> out;
+    for (size_t s = 0; s < names.size(); ++s) {
+      const auto& mouth = lipsync::DefaultMouthControls();
+      if (std::find(mouth.begin(), mouth.end(), names[s]) != mouth.end()) out.push_back(static_cast<int>(s));
+    }
+    return out;
+  }
+  static testing::TempDir* dir_;
+};
+
+testing::TempDir* Lipsync::dir_ = nullptr;
+
+TEST_F(Lipsync, TalkingClipKeepsItsSpeechAndSound) {
+  io::H5File f = io::H5File::OpenRead(File("talk.h5"));
+  const auto phones = f.ReadStrings("/speech/phones");
+  ASSERT_GT(phones.size(), 10u);
+  const auto times = f.ReadMatrix<double>("/speech/times");
+  // The speech starts at 0.3 s (espeak-ng leads with a few ms of silence).
+  EXPECT_GE(times(0, 0), 0.3);
+  EXPECT_LT(times(0, 0), 0.35);
+  // Bob made a map of Paris: b, b, m, m, p, p.
+  const auto visemes = f.ReadVector<int>("/speech/visemes");
+  EXPECT_EQ(std::count(visemes.begin(), visemes.end(), static_cast<int>(lipsync::Viseme::kPP)), 6);
+  // The mouth moves with the speech; the sound is in the WAV and in the mp4.
+  const auto names = f.ReadStrings("/frames/shape_names");
+  const int jaw = static_cast<int>(std::find(names.begin(), names.end(), std::string("jawOpen")) - names.begin());
+  ASSERT_LT(jaw, static_cast<int>(names.size()));
+  EXPECT_GT(Weights(File("talk.h5"), "/frames/weights").col(jaw).maxCoeff(), 0.2f);
+  const io::Audio wav = io::ReadWav(File("talk.wav"));
+  EXPECT_NEAR(static_cast<double>(wav.samples.size()) / wav.rate, kFrames / 30., 0.05);
+  const io::Audio sound = io::DecodeAudio(File("talk.mp4"), 16000);
+  EXPECT_NEAR(static_cast<double>(sound.samples.size()) / sound.rate, kFrames / 30., 0.1);
+  double energy = 0.;
+  for (float x : sound.samples) energy += x * x;
+  EXPECT_GT(std::sqrt(energy / sound.samples.size()), 0.01);
+}
+
+TEST_F(Lipsync, BlendAlignsByTheSoundAndHasExactLimits) {
+  auto r = RunFacecap("lipsync blend --track " + File("video_track.h5") + " --mouth " +
+                      File("mouth_track.h5") + " --video " + File("talk.mp4") + " --mouth-video " +
+                      File("lips.mp4") + " --out " + File("blended.h5"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  io::H5File b = io::H5File::OpenRead(File("blended.h5"));
+  const double offset = b.GetDoubleAttribute("/track", "lipsync_offset_seconds");
+  EXPECT_NEAR(offset, kOffset, 0.02);
+  // A full cross-fade: the mouth of the talking clip, read from the lip view 137 ms later.
+  const RowMatrixF blended = Weights(File("blended.h5"));
+  const RowMatrixF truth = Weights(File("talk.h5"), "/frames/weights");
+  const RowMatrixF video = Weights(File("video_track.h5"));
+  const std::vector<int> mouth = MouthColumns(File("talk.h5"));
+  double error = 0., before = 0.;
+  for (int f = 0; f < kFrames; ++f) {
+    for (int s = 0; s < blended.cols(); ++s) {
+      if (std::find(mouth.begin(), mouth.end(), s) == mouth.end()) {
+        EXPECT_EQ(blended(f, s), video(f, s));
+      } else {
+        error += std::abs(blended(f, s) - truth(f, s));
+        before += std::abs(video(f, s) - truth(f, s));
+      }
+    }
+  }
+  EXPECT_LT(error, 0.1 * before) << error << " " << before;
+  // No cross-fade: the video's solve exactly.
+  r = RunFacecap("lipsync blend --track " + File("video_track.h5") + " --mouth " +
+                 File("mouth_track.h5") + " --offset-seconds 0.137 --crossfade 0 --out " + File("none.h5"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(Weights(File("none.h5")), video);
+  // Bad cross-fades are usage errors.
+  r = RunFacecap("lipsync blend --track " + File("video_track.h5") + " --mouth " +
+                 File("mouth_track.h5") + " --crossfade 0.5,0.5 --out " + File("bad.h5"));
+  EXPECT_EQ(r.code, kExitUsage) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(File("bad.h5")));
+}
+
+TEST_F(Lipsync, EvalScoresMouthUpperFaceAndClosures) {
+  auto r = RunFacecap("lipsync blend --track " + File("video_track.h5") + " --mouth " +
+                      File("mouth_track.h5") + " --offset-seconds 0.137 --out " + File("aligned.h5"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const std::string json = File("lipsync.json");
+  r = RunFacecap("eval lipsync --truth " + File("talk.h5") + " --tracks " + File("video_track.h5") +
+                 "," + File("aligned.h5") + " --names video,blend --out " + json);
+  ASSERT_EQ(r.code, 0) << r.output;
+  std::ifstream in(json);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // Rows: the neutral mouth, the video's solve (its mouth is the neutral's), the blend.
+  auto value = [&](const std::string& row, const std::string& key) {
+    const size_t at = text.find("\"name\": \"" + row);
+    EXPECT_NE(at, std::string::npos) << row << " in " << text;
+    const size_t k = text.find("\"" + key + "\": ", at);
+    return std::stod(text.substr(k + key.size() + 4));
+  };
+  EXPECT_EQ(value("neutral mouth", "mouth_mae"), value("video", "mouth_mae"));
+  EXPECT_GT(value("video", "mouth_mae"), 0.02);
+  EXPECT_LT(value("blend", "mouth_mae"), 0.2 * value("video", "mouth_mae"));
+  EXPECT_EQ(value("blend", "upper_mae"), 0.);
+  EXPECT_LT(value("blend", "pose_err_deg"), 0.05);  // the truth's own poses (float rounding)
+  EXPECT_GE(value("blend", "closure_f1"), 0.99);
+  EXPECT_LT(value("video", "closure_f1"), 0.5);
+}
+
+TEST_F(Lipsync, TrackSolvesTheMouthOfAFrontalViewOnly) {
+  const std::string out = File("lips_solve.h5");
+  auto r = RunFacecap("lipsync track --rig " + File("lips.h5") + " --targets " + File("lips.h5") +
+                      " --count 24 --out " + out, 2);
+  ASSERT_EQ(r.code, 0) << r.output;
+  io::H5File f = io::H5File::OpenRead(out);
+  const RowMatrixF w = f.ReadMatrix<float>("/track/weights");
+  const RowMatrixF pose = f.ReadMatrix<float>("/track/pose");
+  const RowMatrixF truth = Weights(File("lips.h5"), "/frames/weights");
+  const std::vector<int> mouth = MouthColumns(File("lips.h5"));
+  const auto names = f.ReadStrings("/track/shape_names");
+  const int jaw = static_cast<int>(std::find(names.begin(), names.end(), std::string("jawOpen")) - names.begin());
+  Eigen::VectorXd a(24), b(24);
+  for (int i = 0; i < 24; ++i) {
+    EXPECT_EQ(pose.row(i).norm(), 0.f) << "the head turned at frame " << i;
+    for (int s = 0; s < w.cols(); ++s) {
+      if (std::find(mouth.begin(), mouth.end(), s) == mouth.end()) {
+        EXPECT_EQ(w(i, s), 0.f);
+      }
+    }
+    a[i] = w(i, jaw);
+    b[i] = truth(i, jaw);
+  }
+  // The jaw follows the speech (a 64-pixel frame shows the mouth's other controls in a few
+  // pixels).
+  a.array() -= a.mean();
+  b.array() -= b.mean();
+  EXPECT_GT(a.dot(b) / (a.norm() * b.norm()), 0.7);
+  auto bad = RunFacecap("lipsync track --rig " + File("lips.h5") + " --targets " + File("lips.h5") +
+                        " --solve-controls jawOpen,grin --out " + File("bad_track.h5"));
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.output.find("grin"), std::string::npos) << bad.output;
+}
+
+}  // namespace
+}  // namespace facecap::stages
