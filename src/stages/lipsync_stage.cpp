@@ -23,6 +23,7 @@
 #include "rig/pose.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
+#include "stages/speech_file.h"
 #include "util/errors.h"
 #include "util/json.h"
 #include "util/log.h"
@@ -292,19 +293,7 @@ void RunLipsyncAudio(const StageFlags& flags, AppState* state) {
     f.SetAttribute("/track/timecode", "units", std::string("seconds from the start of the sound"));
     f.SetAttribute("/track", "fps", o.fps);
     f.SetAttribute("/track", "source", o.video);
-    std::vector<std::string> phone_names;
-    Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> times(phones.size(), 2);
-    std::vector<int> visemes;
-    for (size_t i = 0; i < phones.size(); ++i) {
-      phone_names.push_back(phones[i].phone);
-      times(i, 0) = phones[i].start;
-      times(i, 1) = phones[i].end;
-      visemes.push_back(phones[i].viseme);
-    }
-    f.WriteStrings("/lipsync/phones", phone_names);
-    f.SetAttribute("/lipsync/phones", "alphabet", std::string("ARPAbet (pocketsphinx)"));
-    f.WriteMatrix("/lipsync/times", times);
-    f.WriteVector<int>("/lipsync/visemes", visemes);
+    WritePhones(&f, "/lipsync", phones, "ARPAbet (pocketsphinx)", "s, the sound's clock");
     f.WriteProvenance(MakeProvenance(ctx, "lipsync audio", resolved));
     f.Commit();
     int speech = 0;
@@ -492,10 +481,14 @@ void RunEvalLipsync(const StageFlags& flags, AppState* state) {
 
 }  // namespace
 
+CLI::App* LipsyncSubcommand(CLI::App* app) {
+  return GroupSubcommand(app, "lipsync",
+                         "Lip-sync (paper 000 Sec. 8.1): the mouth from a second source, blended "
+                         "into the video's solve");
+}
+
 void RegisterLipsync(CLI::App* app, AppState* state) {
-  CLI::App* lipsync = GroupSubcommand(
-      app, "lipsync", "Lip-sync (paper 000 Sec. 8.1): the mouth from a second source, blended "
-      "into the video's solve");
+  CLI::App* lipsync = LipsyncSubcommand(app);
   AddStage<LipsyncBlendOptions>(
       lipsync, state, "blend", "lipsync.blend", "lipsync blend",
       "The video's solve with its mouth controls cross-faded towards a mouth source's (lipsync "

@@ -193,6 +193,8 @@ void RegisterLipsync(CLI::App* app, AppState* state);
 CLI::App* GroupSubcommand(CLI::App* app, const std::string& name, const std::string& description);
 // GroupSubcommand(app, "eval", ...).
 CLI::App* EvalSubcommand(CLI::App* app);
+// GroupSubcommand(app, "lipsync", ...).
+CLI::App* LipsyncSubcommand(CLI::App* app);
 void RegisterRun(CLI::App* app, AppState* state);
 
 std::string VersionReport(const dist::Comm& comm);

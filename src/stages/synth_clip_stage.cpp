@@ -17,6 +17,7 @@
 #include "stages/frames_video.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
+#include "stages/speech_file.h"
 #include "synth/appearance.h"
 #include "synth/clip.h"
 #include "synth/speech.h"
@@ -274,22 +275,7 @@ class SynthClipRun {
   // The speech's truth: its phones with times in the clip's clock and their visemes, and the
   // sound of the whole clip.
   void WriteSpeech(io::H5File* f) {
-    std::vector<std::string> names;
-    Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> times(speech_.phones.size(), 2);
-    std::vector<int> visemes;
-    for (size_t i = 0; i < speech_.phones.size(); ++i) {
-      names.push_back(speech_.phones[i].phone);
-      times(i, 0) = speech_.phones[i].start;
-      times(i, 1) = speech_.phones[i].end;
-      visemes.push_back(speech_.phones[i].viseme);
-    }
-    f->WriteStrings("/speech/phones", names);
-    f->SetAttribute("/speech/phones", "alphabet", std::string("IPA (espeak-ng)"));
-    f->WriteMatrix("/speech/times", times);
-    f->SetAttribute("/speech/times", "columns", std::string("start, end (s, the clip's clock)"));
-    f->WriteVector<int>("/speech/visemes", visemes);
-    f->SetAttribute("/speech/visemes", "names", std::string(
-        "sil, PP, FF, TH, DD, kk, CH, SS, nn, RR, aa, E, ih, oh, ou"));
+    WritePhones(f, "/speech", speech_.phones, "IPA (espeak-ng)", "s, the clip's clock");
     f->SetAttribute("/speech/phones", "text", o_.speech);
     f->SetAttribute("/speech/phones", "voice", o_.voice);
     const io::Audio audio = ClipAudio();

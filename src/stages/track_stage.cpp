@@ -563,6 +563,9 @@ struct LipsyncTrackOptions : TrackOptions {
     frontal = true;
     solve_controls = lipsync::DefaultMouthControls();
     init = "previous";
+    // Many mouth controls draw nearly the same segmentation of a frontal mouth: a strong
+    // prior keeps the ones the image does not ask for at the neutral.
+    tracker.weight_prior = 300.f;
   }
 };
 
@@ -584,11 +587,8 @@ void RegisterTrack(CLI::App* app, AppState* state) {
       "queue, identical for any rank count, resumable",
       PathKeys{{"rig", "targets", "frames"}, {{"out", OutputKind::kHdf5}}},
       RunTrack);
-  CLI::App* lipsync = GroupSubcommand(
-      app, "lipsync", "Lip-sync (paper 000 Sec. 8.1): the mouth from a second source, blended "
-      "into the video's solve");
   AddStage<LipsyncTrackOptions>(
-      lipsync, state, "track", "lipsync.track", "lipsync track",
+      LipsyncSubcommand(app), state, "track", "lipsync.track", "lipsync track",
       "The mouth of a frontal lip video (a lip-sync network's output, a second camera): "
       "ingested and translated as any footage (its frames and translations), then solved as "
       "track does with the head held frontal (its position solved) and every control outside "
