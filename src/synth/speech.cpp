@@ -169,6 +169,42 @@ SpeakerStyle SpeakerStyleOf(int identity_seed) {
   return s;
 }
 
+namespace {
+
+// The speaker's own mouth pose of each viseme: not lipsync::VisemePose, which the audio-only
+// mouth source maps phones to, so that the truth does not share that source's poses.
+const std::vector<std::pair<std::string, float>>& SpeakerPose(lipsync::Viseme v) {
+  using Pose = std::vector<std::pair<std::string, float>>;
+  static const Pose kPoses[lipsync::kNumVisemes] = {
+      {},
+      {{"mouthClose", 0.2f}, {"mouthPressLeft", 0.35f}, {"mouthPressRight", 0.35f},
+       {"mouthRollUpper", 0.15f}, {"mouthRollLower", 0.3f}},
+      {{"jawOpen", 0.05f}, {"mouthRollLower", 0.45f}, {"mouthUpperUpLeft", 0.15f},
+       {"mouthUpperUpRight", 0.15f}, {"mouthPressLeft", 0.1f}, {"mouthPressRight", 0.1f}},
+      {{"jawOpen", 0.12f}, {"mouthLowerDownLeft", 0.1f}, {"mouthLowerDownRight", 0.1f}},
+      {{"jawOpen", 0.18f}, {"mouthStretchLeft", 0.1f}, {"mouthStretchRight", 0.1f},
+       {"mouthLowerDownLeft", 0.1f}, {"mouthLowerDownRight", 0.1f}},
+      {{"jawOpen", 0.3f}, {"mouthStretchLeft", 0.05f}, {"mouthStretchRight", 0.05f}},
+      {{"jawOpen", 0.1f}, {"mouthFunnel", 0.4f}, {"mouthPucker", 0.3f}, {"mouthUpperUpLeft", 0.1f},
+       {"mouthUpperUpRight", 0.1f}},
+      {{"jawOpen", 0.06f}, {"mouthSmileLeft", 0.25f}, {"mouthSmileRight", 0.25f},
+       {"mouthStretchLeft", 0.2f}, {"mouthStretchRight", 0.2f}},
+      {{"jawOpen", 0.12f}, {"mouthLowerDownLeft", 0.08f}, {"mouthLowerDownRight", 0.08f}},
+      {{"jawOpen", 0.12f}, {"mouthPucker", 0.45f}, {"mouthFunnel", 0.2f}},
+      {{"jawOpen", 0.5f}, {"mouthLowerDownLeft", 0.4f}, {"mouthLowerDownRight", 0.4f},
+       {"mouthStretchLeft", 0.1f}, {"mouthStretchRight", 0.1f}},
+      {{"jawOpen", 0.3f}, {"mouthSmileLeft", 0.3f}, {"mouthSmileRight", 0.3f},
+       {"mouthLowerDownLeft", 0.15f}, {"mouthLowerDownRight", 0.15f}},
+      {{"jawOpen", 0.15f}, {"mouthSmileLeft", 0.35f}, {"mouthSmileRight", 0.35f},
+       {"mouthStretchLeft", 0.15f}, {"mouthStretchRight", 0.15f}},
+      {{"jawOpen", 0.35f}, {"mouthFunnel", 0.6f}, {"mouthPucker", 0.15f}},
+      {{"jawOpen", 0.1f}, {"mouthPucker", 0.8f}, {"mouthFunnel", 0.3f}},
+  };
+  return kPoses[std::clamp(static_cast<int>(v), 0, lipsync::kNumVisemes - 1)];
+}
+
+}  // namespace
+
 Eigen::MatrixXf SpeakerMouth(const std::vector<lipsync::PhoneSegment>& phones,
                              const std::vector<std::string>& shape_names, int frames, double fps,
                              const SpeakerStyle& style) {
@@ -178,7 +214,7 @@ Eigen::MatrixXf SpeakerMouth(const std::vector<lipsync::PhoneSegment>& phones,
   // Viseme poses over the shapes, with the person's gains.
   Eigen::MatrixXf poses = Eigen::MatrixXf::Zero(lipsync::kNumVisemes, S);
   for (int v = 0; v < lipsync::kNumVisemes; ++v) {
-    for (const auto& [name, weight] : lipsync::VisemePose(static_cast<Viseme>(v))) {
+    for (const auto& [name, weight] : SpeakerPose(static_cast<Viseme>(v))) {
       const auto it = std::find(mouth.begin(), mouth.end(), name);
       const float gain = it != mouth.end() && style.gains.size() == static_cast<int>(mouth.size())
                              ? style.gains[it - mouth.begin()] : 1.f;

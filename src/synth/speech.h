@@ -3,12 +3,13 @@
 // mouth controls of the performance.
 //
 // The speaker's coarticulation is deliberately another model than the dominance functions
-// that facecap's audio-only mouth source uses (lipsync/speech_track.h), so that scoring that
-// source against this truth is not circular: each phone's viseme pose is held over a raised-
-// cosine window that opens `lead` before the phone and closes `lag` after it, windows are
-// mixed by priority (lip closures first, then vowels, then other consonants), the mix is
-// smoothed by a forward-backward exponential filter, and each person has their own lead, lag,
-// smoothing, overall amplitude and per-control gains (from the identity seed).
+// that facecap's audio-only mouth source uses (lipsync/speech_track.h), with its own mouth
+// pose for each viseme, so that scoring that source against this truth is not circular: each
+// phone's viseme pose is held over a raised-cosine window that opens `lead` before the phone
+// and closes `lag` after it, windows are mixed by priority (lip closures first, then vowels,
+// then other consonants), the mix is smoothed by a forward-backward exponential filter, and
+// each person has their own lead, lag, smoothing, overall amplitude and per-control gains
+// (from the identity seed).
 #ifndef FACECAP_SYNTH_SPEECH_H_
 #define FACECAP_SYNTH_SPEECH_H_
 
