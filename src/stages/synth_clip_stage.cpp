@@ -32,6 +32,15 @@ namespace {
 constexpr int kNumLandmarks = 68;
 constexpr int kNumDegradationColumns = 6;
 
+// The mp4 and the WAV beside a clip.
+std::string VideoPath(const std::string& out) {
+  return std::filesystem::path(out).replace_extension(".mp4").string();
+}
+
+std::string WavPath(const std::string& out) {
+  return std::filesystem::path(out).replace_extension(".wav").string();
+}
+
 // [synth.clip]
 struct SynthClipOptions {
   std::string rig = "rig.h5";        // rig file (the mean person; identity_seed personalizes it)
@@ -48,8 +57,8 @@ struct SynthClipOptions {
 
   // --help's sections, by the first key of each.
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
-    return {{"rig", "Input and output"}, {"speech", "Speech"}, {"frames", "Clip"}, {"identity_seed", "Person and seeds"},
-            {"expression_seconds", "Expressions"}, {"pose_seconds", "Head motion"},
+    return {{"rig", "Input and output"}, {"speech", "Speech"}, {"frames", "Clip"},
+            {"identity_seed", "Person and seeds"}, {"expression_seconds", "Expressions"}, {"pose_seconds", "Head motion"},
             {"light_period_seconds", "Lighting"}, {"texture_size", "Skin texture"},
             {"exposure_min", "Camera degradations"}};
   }
@@ -81,9 +90,7 @@ struct SynthClipOptions {
                           OutputKind::kVideo});
     }
     if (!speech.empty()) {
-      outputs->push_back({"speech audio (out with .wav)",
-                          std::filesystem::path(out).replace_extension(".wav").string(),
-                          OutputKind::kAudio});
+      outputs->push_back({"speech audio (out with .wav)", WavPath(out), OutputKind::kAudio});
     }
   }
   bool Check(std::string* why) const {
@@ -95,10 +102,6 @@ struct SynthClipOptions {
     return clip.Check(why);
   }
 };
-
-std::string VideoPath(const std::string& out) {
-  return std::filesystem::path(out).replace_extension(".mp4").string();
-}
 
 // The photo for the background: the folder's image files sorted by name, one picked by seed.
 Image8 BackgroundPhoto(const std::string& folder, int background_seed) {
@@ -210,6 +213,7 @@ class SynthClipRun {
           &output_);
       if (comm_.IsMainRank()) FC_INFO("synth clip: {} frames -> {}", co_.frames, o_.out);
     }
+    if (!o_.speech.empty()) WriteSound();
     if (o_.video) WriteVideo();
   }
 
@@ -378,12 +382,19 @@ class SynthClipRun {
       } else {
         WriteFramesVideo(o_.out, video, co_.fps, "synth clip");
         if (!o_.speech.empty()) {
-          const std::string wav = std::filesystem::path(o_.out).replace_extension(".wav").string();
-          io::WriteWav(wav, ClipAudio());
-          io::MuxAudio(video, wav, video);
-          FC_INFO("synth clip: the speech ({}) -> {} and the sound track of {}", o_.voice, wav, video);
+          io::MuxAudio(video, WavPath(o_.out), video);
+          FC_INFO("synth clip: the speech is the sound track of {}", video);
         }
       }
+    });
+  }
+
+  // Rank 0: the clip's sound as a WAV beside the clip.
+  void WriteSound() {
+    dist::CoordinateExceptions(comm_, [&] {
+      if (!comm_.IsMainRank()) return;
+      io::WriteWav(WavPath(o_.out), ClipAudio());
+      FC_INFO("synth clip: the speech ({}) -> {}", o_.voice, WavPath(o_.out));
     });
   }
 
