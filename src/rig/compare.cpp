@@ -1,5 +1,6 @@
 #include "rig/compare.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Geometry>
@@ -23,6 +24,11 @@ double SimilarityAlignedRms(const Vertices& estimate, const Vertices& truth) {
 double InterOcularDistance(const Rig& rig, const Vertices& vertices) {
   if (rig.landmarks.size() != 68) return 0.;
   return (vertices.row(rig.landmarks[36]) - vertices.row(rig.landmarks[45])).cast<double>().norm();
+}
+
+double RotationAngleDeg(const RigidPose& a, const RigidPose& b) {
+  const Eigen::Matrix3d r = (a.Rotation().transpose() * b.Rotation()).cast<double>();
+  return std::acos(std::clamp((r.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
 }
 
 }  // namespace facecap::rig

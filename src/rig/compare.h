@@ -2,6 +2,7 @@
 #ifndef FACECAP_RIG_COMPARE_H_
 #define FACECAP_RIG_COMPARE_H_
 
+#include "rig/pose.h"
 #include "rig/rig.h"
 
 namespace facecap::rig {
@@ -14,6 +15,9 @@ double SimilarityAlignedRms(const Vertices& estimate, const Vertices& truth);
 // The 3D distance between the outer eye corners (iBUG landmarks 36 and 45) of `vertices`,
 // the normaliser of face errors; 0 when the rig has no 68 landmarks.
 double InterOcularDistance(const Rig& rig, const Vertices& vertices);
+
+// The angle of the rotation between two poses' rotations, in degrees (the pose error).
+double RotationAngleDeg(const RigidPose& a, const RigidPose& b);
 
 }  // namespace facecap::rig
 

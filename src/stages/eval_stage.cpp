@@ -74,11 +74,6 @@ struct EvalTrackOptions {
   }
 };
 
-double RotationAngleDeg(const rig::RigidPose& a, const rig::RigidPose& b) {
-  const Eigen::Matrix3d r = (a.Rotation().transpose() * b.Rotation()).cast<double>();
-  return std::acos(std::clamp((r.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
-}
-
 // A truth weight above this counts as active (the weight MAE over active weights).
 constexpr float kActiveWeight = 0.1f;
 
@@ -219,7 +214,7 @@ class TrackScorer {
     Eigen::VectorXf wt = Eigen::VectorXf::Zero(S_);
     const double frame_weight_err = ScoreWeights(t, ws, &wt);
     err.weights += frame_weight_err;
-    const double pe = RotationAngleDeg(truth_pose, solved);
+    const double pe = rig::RotationAngleDeg(truth_pose, solved);
     scores_.frame_errors.push_back({static_cast<double>(f), pe, frame_weight_err, std::nan("")});
     scores_.pose_errors.push_back(pe);
     err.pose += pe;

@@ -20,6 +20,7 @@
 #include "lipsync/phone_recognizer.h"
 #include "lipsync/speech_track.h"
 #include "lipsync/visemes.h"
+#include "rig/compare.h"
 #include "rig/pose.h"
 #include "stages/cli.h"
 #include "stages/registry.h"
@@ -348,11 +349,6 @@ struct LipsyncRow {
   lipsync::DetectionScore closures;
 };
 
-double AngleBetweenDeg(const rig::RigidPose& a, const rig::RigidPose& b) {
-  const Eigen::Matrix3d r = (a.Rotation().transpose() * b.Rotation()).cast<double>();
-  return std::acos(std::clamp((r.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
-}
-
 // What eval lipsync reads of the truth.
 struct LipsyncTruth {
   rig::Rig rig;
@@ -394,7 +390,7 @@ LipsyncRow ScoreLipsync(const EvalLipsyncOptions& o, const LipsyncTruth& truth,
     rig::RigidPose a, b;
     a.pitch = truth.pose(r, 0); a.yaw = truth.pose(r, 1); a.roll = truth.pose(r, 2);
     b.pitch = track.pose(f, 0); b.yaw = track.pose(f, 1); b.roll = track.pose(f, 2);
-    row.pose_deg += AngleBetweenDeg(a, b);
+    row.pose_deg += rig::RotationAngleDeg(a, b);
   }
   row.mouth_mae /= std::max(1, mouth_n);
   row.upper_mae /= std::max(1, upper_n);
