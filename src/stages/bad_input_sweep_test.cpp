@@ -1,7 +1,8 @@
 // The bad-input sweep: every stage that `facecap run` knows, with each of its path options in
 // turn pointed at one of its inputs, at a folder and at a file of the wrong kind. Each case
 // must end with a clear error (exit 2 or 3, naming the file), every input file unchanged
-// (sha256 of each file before and after) and nothing under an output's final name. The
+// (the sha256 of each input the case names, and the size and modification time of every
+// fixture file, before and after) and nothing under an output's final name. The
 // stages and their path options come from the registry, so a new stage or path option is
 // swept, or this test fails asking for valid inputs of it.
 #include <filesystem>
@@ -218,12 +219,20 @@ class BadInputSweep : public ::testing::Test {
     return dir_->File(name);
   }
 
-  // sha256 of every input file (the fixture folder but cases/, where the cases write).
-  static std::string Hashes() {
-    return testing::RunCommand("cd " + Quote(dir_->path()) +
-                               " && find . -path ./cases -prune -o -type f -print | "
-                               "LC_ALL=C sort | xargs sha256sum")
-        .output;
+  // What a case could change: the size and modification time of every fixture file (but
+  // cases/, where the cases write) and the sha256 of each fixture file or folder in `inputs`.
+  static std::string Snapshot(const std::map<std::string, std::string>& inputs) {
+    std::string named;
+    for (const auto& [key, path] : inputs) {
+      if (!path.empty() && path.rfind(dir_->path(), 0) == 0) named += " " + Quote(path);
+    }
+    std::string command = "cd " + Quote(dir_->path()) +
+                          " && find . -path ./cases -prune -o -type f -printf '%p %s %T@\\n' | "
+                          "LC_ALL=C sort";
+    if (!named.empty()) {
+      command += " && find" + named + " -type f -print0 | LC_ALL=C sort -z | xargs -0 -r sha256sum";
+    }
+    return testing::RunCommand(command).output;
   }
 
   // The stages, with their path options as the registry declares them.
@@ -254,7 +263,7 @@ class BadInputSweep : public ::testing::Test {
       if (!fs::exists(path)) fresh.push_back(path);
     }
     args += " " + extra;
-    const std::string before = Hashes();
+    const std::string before = Snapshot(inputs);
     const testing::CommandResult r = testing::RunFacecap(args);
     ++tally->cases;
     const std::string label = "[" + spec.table + "] " + what + "\n  facecap " + args + "\n" +
@@ -268,7 +277,7 @@ class BadInputSweep : public ::testing::Test {
       EXPECT_NE(r.output.find(says), std::string::npos) << "does not say '" << says << "': "
                                                         << label;
     }
-    const bool modified = Hashes() != before;
+    const bool modified = Snapshot(inputs) != before;
     tally->inputs_modified += modified;
     EXPECT_FALSE(modified) << "an input changed: " << label;
     for (const std::string& path : fresh) {
@@ -370,6 +379,22 @@ TEST_F(BadInputSweep, OutputsNamingInputsAreRefused) {
 // Every output option at a folder (or, for a folder output, at a file) and with a name its
 // format does not have: exit 2, before any work.
 TEST_F(BadInputSweep, OutputsAtFoldersAndWrongExtensionsAreRefused) {
+  {
+    // The snapshot sees a named input rewritten in place with its size and time kept, and a
+    // file it does not name appearing.
+    const std::string probe = dir_->File("probe.bin");
+    std::ofstream(probe) << "before";
+    const std::string before = Snapshot({{"probe", probe}});
+    const fs::file_time_type time = fs::last_write_time(probe);
+    std::ofstream(probe) << "after!";
+    fs::last_write_time(probe, time);
+    EXPECT_NE(Snapshot({{"probe", probe}}), before);
+    const std::string unnamed = Snapshot({});
+    std::ofstream(dir_->File("stray.bin")) << "x";
+    EXPECT_NE(Snapshot({}), unnamed);
+    fs::remove(probe);
+    fs::remove(dir_->File("stray.bin"));
+  }
   Tally tally;
   ForEachStage([&](const StageSpec& spec, const StageInputs& run,
                    const std::vector<OutputKey>& outputs) {
