@@ -167,6 +167,8 @@ void RegisterRig(CLI::App* app, AppState* state);
 void RegisterRigCalibrate(CLI::App* rig, AppState* state);
 void RegisterRender(CLI::App* app, AppState* state);
 void RegisterSynth(CLI::App* app, AppState* state);
+// `synth contract`, under the `synth` subcommand made by RegisterSynth.
+void RegisterSynthContract(CLI::App* synth, AppState* state);
 // `synth clip` and `synth sheet`, under the `synth` subcommand made by RegisterSynth.
 void RegisterSynthClip(CLI::App* synth, AppState* state);
 // `synth crops`, under the `synth` subcommand.

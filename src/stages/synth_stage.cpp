@@ -1,6 +1,8 @@
 // facecap synth samples: random rig samples rendered as segmentation images (paper 000
 // Sec. 7), spread across ranks, resumable.
+#include <functional>
 #include <memory>
+#include <mutex>
 
 #include "face/align.h"
 #include "io/rig_io.h"
@@ -16,8 +18,9 @@
 #include "stages/ingested_frames.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
+#include "stages/sample_file.h"
+#include "synth/sample_set.h"
 #include "synth/samples.h"
-#include "util/bytes.h"
 #include "util/errors.h"
 #include "util/log.h"
 
@@ -67,8 +70,6 @@ struct SynthSamplesOptions {
   }
 };
 
-constexpr int kNumLandmarks = 68;
-
 // Per-thread rendering state.
 struct SampleRenderer {
   render::GBuffer gbuffer;
@@ -77,49 +78,28 @@ struct SampleRenderer {
   std::vector<render::Landmark2D> landmarks;
 };
 
-// The per-sample datasets in a new or continued output.
-void CreateSampleDatasets(io::H5File* f, int H, int W, int S, int64_t count, const std::string& framing) {
-  f->CreateFrames<uint8_t>("/samples/segmentation", {H, W, 3}, count, 16, 1);
-  f->SetAttribute("/samples/segmentation", "layout", std::string("frame, y, x, RGB"));
-  f->CreateFrames<float>("/samples/weights", {S}, count, 256, 4);
-  f->CreateFrames<float>("/samples/pose", {3}, count, 1024, 4);
-  f->SetAttribute("/samples/pose", "columns", std::string("pitch, yaw, roll"));
-  f->SetAttribute("/samples/pose", "units", std::string("rad"));
-  f->CreateFrames<float>("/samples/landmarks", {kNumLandmarks, 2}, count, 256, 4);
-  f->SetAttribute("/samples/landmarks", "units", std::string("pixels (x right, y down)"));
-  f->CreateFrames<uint8_t>("/samples/landmark_visible", {kNumLandmarks}, count, 1024, 4);
-  f->CreateFrames<float>("/samples/camera", {4}, count, 1024, 4);
-  f->SetAttribute("/samples/camera", "columns",
-                  std::string("fx, fy, cx, cy (pixels) of the camera each sample is rendered "
-                              "with (" + framing + " framing)"));
-}
+// Where the samples of a run come from: drawn at random (synth samples), or rows copied from
+// another samples file followed by samples of given parameters (synth expand).
+struct SampleSource {
+  std::string stage = "synth samples";  // log prefix and provenance
+  std::string out;
+  int64_t count = 0;                    // samples in the output
+  const io::H5File* copy_from = nullptr;
+  int64_t copied = 0;                   // rows [0, copied) copied from copy_from
+  // Parameters of sample `index` >= copied; null: synth::DrawSample.
+  std::function<synth::SampleParams(int64_t index)> params;
+  // What a new output holds besides the samples (rank 0).
+  std::function<void(io::H5File*)> records;
+};
 
-// The rig's shape and region names, region colours and the camera (a new output).
-void WriteSampleRecords(io::H5File* f, const rig::Rig& rig, const render::Camera& camera,
-                        float distance) {
-  std::vector<std::string> names;
-  for (const auto& s : rig.shapes) names.push_back(s.name);
-  f->WriteStrings("/samples/shape_names", names);
-  std::vector<std::string> region_names;
-  Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> colors(rig.regions.size(), 3);
-  for (size_t r = 0; r < rig.regions.size(); ++r) {
-    region_names.push_back(rig.regions[r].name);
-    colors.row(r) = rig.regions[r].color.transpose();
-  }
-  f->WriteStrings("/regions/names", region_names);
-  f->WriteMatrix("/regions/colors", colors);
-  f->WriteVector<double>("/camera/intrinsics", {camera.fx, camera.fy, camera.cx, camera.cy});
-  f->SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
-  f->SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(distance));
-}
-
-// One synth samples run: the rig read on every rank (each sample is a pure function of its
-// index), the output on rank 0, and the samples rendered.
+// One run: the rig read on every rank (each sample is a pure function of its index), the
+// output on rank 0, and the samples rendered (or copied).
 class SynthSamplesRun {
  public:
-  SynthSamplesRun(const SynthSamplesOptions& o, const StageContext& ctx, const io::Config& resolved)
-      : o_(o), so_(o.sample), ctx_(ctx), resolved_(resolved), comm_(ctx.comm),
-        crop_(o.framing == "crop") {}
+  SynthSamplesRun(const SynthSamplesOptions& o, SampleSource source, const StageContext& ctx,
+                  const io::Config& resolved)
+      : o_(o), so_(o.sample), source_(std::move(source)), ctx_(ctx), resolved_(resolved),
+        comm_(ctx.comm), crop_(o.framing == "crop") {}
 
   void Run() {
     ReadRig();
@@ -132,43 +112,54 @@ class SynthSamplesRun {
     const int threads = ThreadsPerRank(o_.threads);
     renderers_ = std::vector<SampleRenderer>(threads);
     FrameLoopOptions loop;
-    loop.what = "synth samples";
+    loop.what = source_.stage;
     loop.batch = o_.batch;
     loop.threads = threads;
     RunFrameLoopAndCommit(
-        comm_, pending_, so_.count, loop,
-        [&](int64_t index, int thread) { return RenderSample(index, thread); },
+        comm_, pending_, source_.count, loop,
+        [&](int64_t index, int thread) { return Sample(index, thread); },
         [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
-          CommitSamples(frames, results);
+          WriteSampleRows(&output_.file, frames, results);
+          io::DoneMask mask(&output_.file, source_.count);
+          mask.MarkDone(frames);
         },
         &output_);
-    if (comm_.IsMainRank()) FC_INFO("synth samples: {} samples -> {}", so_.count, o_.out);
-  }
-
- private:
-  // The rig and the sparsity groups of its shapes (every rank).
-  void ReadRig() {
-    dist::CoordinateExceptions(comm_, [&] {
-      rig_ = io::ReadRigFile(o_.rig);
-      if (rig_.landmarks.size() != kNumLandmarks) {
-        throw FileIOError(o_.rig + ": the rig has " + std::to_string(rig_.landmarks.size()) +
-                          " landmarks, synth samples needs the 68 iBUG landmarks");
-      }
-      sparsity_ = synth::ResolveSparsity(rig_, so_);
-    });
-    if (comm_.IsMainRank() && !sparsity_.ungrouped.empty()) {
-      FC_WARN("synth samples: {} shapes belong to no sparsity group and stay at 0 (first: {})",
-              sparsity_.ungrouped.size(), rig_.shapes[sparsity_.ungrouped[0]].name);
+    if (comm_.IsMainRank()) {
+      FC_INFO("{}: {} samples -> {}", source_.stage, source_.count, source_.out);
     }
   }
 
+  // The rig's shape names resolved into the sparsity groups (after Run or ReadRig).
+  const synth::Sparsity& sparsity() const { return sparsity_; }
+
+  // The rig and the sparsity groups of its shapes (every rank).
+  void ReadRig() {
+    if (rig_read_) return;
+    dist::CoordinateExceptions(comm_, [&] {
+      rig_ = io::ReadRigFile(o_.rig);
+      if (rig_.landmarks.size() != kSampleLandmarks) {
+        throw FileIOError(o_.rig + ": the rig has " + std::to_string(rig_.landmarks.size()) +
+                          " landmarks, " + source_.stage + " needs the 68 iBUG landmarks");
+      }
+      sparsity_ = synth::ResolveSparsity(rig_, so_);
+    });
+    rig_read_ = true;
+    if (comm_.IsMainRank() && !sparsity_.ungrouped.empty()) {
+      FC_WARN("{}: {} shapes belong to no sparsity group and stay at 0 (first: {})",
+              source_.stage, sparsity_.ungrouped.size(), rig_.shapes[sparsity_.ungrouped[0]].name);
+    }
+  }
+
+ private:
   // Rank 0 opens (or continues) the output; true on every rank when it is up to date.
   bool OpenOutput() {
     FrameOutput opened = OpenFrameOutput(
-        ctx_, resolved_, "synth samples", o_.out, so_.count,
+        ctx_, resolved_, source_.stage, source_.out, source_.count,
         [&](io::H5File* f, bool resumed) {
-          CreateSampleDatasets(f, so_.size, so_.size, S_, so_.count, o_.framing);
-          if (!resumed) WriteSampleRecords(f, rig_, camera_, distance_);
+          CreateSampleDatasets(f, so_.size, S_, source_.count, o_.framing);
+          if (resumed) return;
+          WriteSampleRecords(f, rig_, camera_, distance_);
+          if (source_.records) source_.records(f);
         },
         "samples");
     output_ = std::move(opened.output);
@@ -176,10 +167,19 @@ class SynthSamplesRun {
     return opened.up_to_date;
   }
 
-  // Draws and renders sample `index`: segmentation, weights, pose, landmarks and camera.
-  std::vector<uint8_t> RenderSample(int64_t index, int thread) {
+  std::vector<uint8_t> Sample(int64_t index, int thread) {
+    if (index < source_.copied) {
+      std::lock_guard<std::mutex> lock(copy_mutex_);
+      return ReadSampleRow(*source_.copy_from, index);
+    }
+    return RenderSample(source_.params ? source_.params(index)
+                                       : synth::DrawSample(sparsity_, so_, S_, index),
+                        thread);
+  }
+
+  // Renders a sample: segmentation, weights, pose, landmarks and camera.
+  std::vector<uint8_t> RenderSample(const synth::SampleParams& p, int thread) {
     SampleRenderer& r = renderers_[thread];
-    const synth::SampleParams p = synth::DrawSample(sparsity_, so_, S_, index);
     rig::RigidPose pose = render::FramedPose(rig_, distance_, p.pitch, p.yaw);
     render::Camera view_camera = camera_;
     if (crop_) {
@@ -192,11 +192,7 @@ class SynthSamplesRun {
                                Eigen::Vector3f::Zero(), &r.segmentation);
     render::ProjectLandmarks(r.posed, rig_.triangles, rig_.landmarks, view_camera, r.gbuffer,
                              &r.landmarks);
-    ByteWriter w;
-    w.PutVector(r.segmentation.data);
-    w.PutArray(p.weights.data(), S_);
     const float angles[3] = {pose.pitch, pose.yaw, pose.roll};
-    w.PutArray(angles, 3);
     std::vector<float> xy;
     std::vector<uint8_t> visible;
     for (const auto& l : r.landmarks) {
@@ -204,56 +200,19 @@ class SynthSamplesRun {
       xy.push_back(l.position.y());
       visible.push_back(l.visible ? 1 : 0);
     }
-    w.PutVector(xy);
-    w.PutVector(visible);
     const float intrinsics[4] = {view_camera.fx, view_camera.fy, view_camera.cx, view_camera.cy};
-    w.PutArray(intrinsics, 4);
-    return std::move(w.bytes());
-  }
-
-  // Rank 0: pending frames come in ascending runs; each contiguous run written at once.
-  void CommitSamples(const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
-    io::H5File& f = output_.file;
-    size_t k = 0;
-    while (k < frames.size()) {
-      size_t end = k + 1;
-      while (end < frames.size() && frames[end] == frames[end - 1] + 1) ++end;
-      const int64_t n = static_cast<int64_t>(end - k);
-      std::vector<uint8_t> seg, vis;
-      std::vector<float> weights, angles, xy, cameras;
-      for (size_t j = k; j < end; ++j) {
-        ByteReader r(results[j]);
-        auto s = r.GetVector<uint8_t>();
-        seg.insert(seg.end(), s.begin(), s.end());
-        auto w = r.GetVector<float>();
-        weights.insert(weights.end(), w.begin(), w.end());
-        auto a = r.GetVector<float>();
-        angles.insert(angles.end(), a.begin(), a.end());
-        auto l = r.GetVector<float>();
-        xy.insert(xy.end(), l.begin(), l.end());
-        auto v = r.GetVector<uint8_t>();
-        vis.insert(vis.end(), v.begin(), v.end());
-        auto c = r.GetVector<float>();
-        cameras.insert(cameras.end(), c.begin(), c.end());
-      }
-      f.WriteFrames<uint8_t>("/samples/segmentation", frames[k], n, seg.data());
-      f.WriteFrames<float>("/samples/weights", frames[k], n, weights.data());
-      f.WriteFrames<float>("/samples/pose", frames[k], n, angles.data());
-      f.WriteFrames<float>("/samples/landmarks", frames[k], n, xy.data());
-      f.WriteFrames<uint8_t>("/samples/landmark_visible", frames[k], n, vis.data());
-      f.WriteFrames<float>("/samples/camera", frames[k], n, cameras.data());
-      k = end;
-    }
-    io::DoneMask mask(&f, so_.count);
-    mask.MarkDone(frames);
+    return PackSampleRow(r.segmentation.data, p.weights.data(), S_, angles, xy, visible,
+                         intrinsics);
   }
 
   const SynthSamplesOptions& o_;
   const synth::SampleOptions& so_;
+  const SampleSource source_;
   const StageContext& ctx_;
   const io::Config& resolved_;
   const dist::Comm& comm_;
   const bool crop_;  // framing = crop
+  bool rig_read_ = false;
   rig::Rig rig_;
   synth::Sparsity sparsity_;
   int S_ = 0;
@@ -264,13 +223,208 @@ class SynthSamplesRun {
   ResumableOutput output_;  // rank 0
   std::vector<int64_t> pending_;
   std::vector<SampleRenderer> renderers_;
+  std::mutex copy_mutex_;
 };
 
 void RunSynthSamples(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
   const auto o = ResolveStageOptions<SynthSamplesOptions>(flags, &ctx, &resolved);
-  SynthSamplesRun(o, ctx, resolved).Run();
+  SampleSource source;
+  source.out = o.out;
+  source.count = o.sample.count;
+  SynthSamplesRun(o, std::move(source), ctx, resolved).Run();
+}
+
+// [synth.expand]
+struct SynthExpandOptions {
+  std::string rig = "rig.h5";                 // the rig the samples were rendered with
+  std::string samples = "contracted.h5";      // the set to expand (synth contract's output)
+  std::string frame_codes = "translated.h5";  // deepfake infer of the footage crops
+  std::string track = "track.h5";             // the tracker's solutions on those frames
+  std::string out = "expanded.h5";            // output file
+  int64_t count = 0;                          // samples in the output (0: the random set's)
+  double gap_fraction = 0.2;                  // real frames taken as gaps
+  int neighbors = 5;                          // k of the mean distance to the k nearest codes
+  int batch = 32;
+  int threads = 0;
+  synth::ExpansionOptions expansion;
+
+  template <class V>
+  void Visit(V&& v) {
+    v("rig", rig, "rig file the samples were rendered with (HDF5)");
+    v("samples", samples, "samples to expand: synth contract's output (with /samples/latent)");
+    v("frame_codes", frame_codes,
+      "deepfake infer's output on the footage crops (/frames/latent: each frame's code E(I))");
+    v("track", track, "the tracker's solutions on the same frames (track --frames TRANSLATED)");
+    v("out", out, "output file (HDF5): the samples, then the new ones");
+    v("count", count,
+      "samples in the output, the kept ones included (0: the count the random set was drawn "
+      "with, so that the expanded set is as large as the raw one)");
+    v("gap_fraction", gap_fraction,
+      "fraction of the real frames, those farthest from every sample's code, whose solutions "
+      "seed the new samples");
+    v("neighbors", neighbors, "k of the mean distance to the k nearest codes");
+    v("batch", batch, "samples per rank per round; each round is a checkpoint");
+    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
+    expansion.Visit(v);
+  }
+  bool Check(std::string* why) const {
+    if (count < 0) { *why = "count must be >= 0"; return false; }
+    if (!(gap_fraction > 0 && gap_fraction <= 1)) {
+      *why = "gap_fraction must be in (0, 1]";
+      return false;
+    }
+    if (neighbors < 1) { *why = "neighbors must be at least 1"; return false; }
+    if (batch <= 0) { *why = "batch must be positive"; return false; }
+    if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    return expansion.Check(why);
+  }
+};
+
+// The [synth.samples] options a samples file was made with.
+SynthSamplesOptions SamplingOptionsOf(const io::H5File& f) {
+  const io::Config config = io::Config::Parse(SamplingConfig(f), f.path() + " (sampling config)");
+  for (const std::string& group : config.Tables("")) {
+    for (const std::string& table : config.Tables(group)) {
+      if (config.Has(group + "." + table, "count")) {
+        return io::ResolveOptions<SynthSamplesOptions>(config, group + "." + table);
+      }
+    }
+  }
+  throw FileIOError(f.path() + ": its sampling config holds no [synth.samples] table");
+}
+
+// Rank 0: the real frames farthest from every sample in the deepfake's latent space, and the
+// tracker's solutions on them.
+struct Gaps {
+  std::vector<int64_t> frames;   // indices into the frames (and the track), ascending
+  std::vector<double> score;     // every real frame's mean distance to its nearest samples
+  double threshold = 0;
+  std::vector<synth::SeedParams> seeds;
+};
+
+Gaps FindGaps(const SynthExpandOptions& o, const io::H5File& samples, int num_shapes) {
+  const io::H5File codes = io::H5File::OpenRead(o.frame_codes);
+  const io::Shape frame_shape = codes.CheckShape("/frames/latent", {-1, -1});
+  const io::Shape sample_shape = samples.CheckShape("/samples/latent", {-1, -1});
+  if (frame_shape[1] != sample_shape[1]) {
+    throw FileIOError(o.frame_codes + ": codes of " + std::to_string(frame_shape[1]) + " values, " +
+                      o.samples + " has codes of " + std::to_string(sample_shape[1]) +
+                      " (made by another deepfake)");
+  }
+  const io::H5File track = io::H5File::OpenRead(o.track);
+  track.CheckShape("/track/weights", {frame_shape[0], num_shapes});
+  track.CheckShape("/track/pose", {frame_shape[0], 3});
+  std::vector<uint8_t> found(frame_shape[0], 1);
+  if (codes.Exists("/frames/found")) found = codes.ReadVector<uint8_t>("/frames/found", frame_shape[0]);
+  std::vector<int64_t> real;
+  for (int64_t i = 0; i < frame_shape[0]; ++i) {
+    if (found[i]) real.push_back(i);
+  }
+  if (real.empty()) throw FileIOError(o.frame_codes + ": no frame with a face");
+  const synth::CodeMatrix all = codes.ReadMatrix<float>("/frames/latent");
+  synth::CodeMatrix real_codes(real.size(), all.cols());
+  for (size_t j = 0; j < real.size(); ++j) real_codes.row(j) = all.row(real[j]);
+  Gaps gaps;
+  const std::vector<double> score = synth::MeanNearestDistance(
+      real_codes, samples.ReadMatrix<float>("/samples/latent"), o.neighbors, false, nullptr);
+  gaps.score.assign(frame_shape[0], 0.0);
+  for (size_t j = 0; j < real.size(); ++j) gaps.score[real[j]] = score[j];
+  gaps.threshold = synth::FractionThreshold(score, o.gap_fraction);
+  for (int64_t j : synth::ScoresAbove(score, gaps.threshold)) gaps.frames.push_back(real[j]);
+  if (gaps.frames.empty()) gaps.frames.push_back(real[0]);
+  const auto weights = track.ReadMatrix<float>("/track/weights");
+  const auto pose = track.ReadMatrix<float>("/track/pose");
+  for (int64_t frame : gaps.frames) {
+    synth::SeedParams seed;
+    seed.pitch = pose(frame, 0);
+    seed.yaw = pose(frame, 1);
+    seed.weights = weights.row(frame).transpose();
+    gaps.seeds.push_back(std::move(seed));
+  }
+  return gaps;
+}
+
+void RunSynthExpand(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<SynthExpandOptions>(flags, &ctx, &resolved);
+  const dist::Comm& comm = ctx.comm;
+  io::H5File samples;
+  SynthSamplesOptions sampling;
+  int64_t kept = 0;
+  dist::CoordinateExceptions(comm, [&] {
+    samples = io::H5File::OpenRead(o.samples);
+    sampling = SamplingOptionsOf(samples);
+    kept = samples.CheckShape("/samples/segmentation", {-1, sampling.sample.size, sampling.sample.size, 3})[0];
+    samples.CheckShape("/samples/latent", {kept, -1});
+  });
+  sampling.rig = o.rig;
+  sampling.batch = o.batch;
+  sampling.threads = o.threads;
+  const int64_t count = o.count > 0 ? o.count : sampling.sample.count;
+  if (count < kept) {
+    throw InvalidInputError("synth expand: count " + std::to_string(count) + " is below the " +
+                            std::to_string(kept) + " samples of " + o.samples);
+  }
+  // The gaps on rank 0, their seeds on every rank.
+  Gaps gaps;
+  std::vector<float> seed_values;  // pitch, yaw, weights per seed
+  int S = 0;
+  dist::CoordinateExceptions(comm, [&] {
+    S = static_cast<int>(samples.ReadStrings("/samples/shape_names").size());
+    if (!comm.IsMainRank()) return;
+    gaps = FindGaps(o, samples, S);
+    for (const auto& seed : gaps.seeds) {
+      seed_values.push_back(seed.pitch);
+      seed_values.push_back(seed.yaw);
+      seed_values.insert(seed_values.end(), seed.weights.data(), seed.weights.data() + S);
+    }
+  });
+  comm.Broadcast(&seed_values);
+  std::vector<synth::SeedParams> seeds(seed_values.size() / (2 + S));
+  for (size_t i = 0; i < seeds.size(); ++i) {
+    const float* v = seed_values.data() + i * (2 + S);
+    seeds[i].pitch = v[0];
+    seeds[i].yaw = v[1];
+    seeds[i].weights = Eigen::Map<const Eigen::VectorXf>(v + 2, S);
+  }
+  if (comm.IsMainRank()) {
+    FC_INFO("synth expand: {} of {} real frames are gaps (mean distance to the {} nearest samples "
+            "above {:.4g}); {} kept samples + {} new from their solutions",
+            gaps.frames.size(), gaps.score.size(), o.neighbors, gaps.threshold, kept, count - kept);
+  }
+  SampleSource source;
+  source.stage = "synth expand";
+  source.out = o.out;
+  source.count = count;
+  source.copy_from = &samples;
+  source.copied = kept;
+  synth::Sparsity sparsity;  // the rig's, once read
+  source.params = [&](int64_t index) {
+    return synth::ExpandSample(seeds, sparsity, sampling.sample, o.expansion, index - kept);
+  };
+  const std::string sampling_config = SamplingConfig(samples);
+  source.records = [&](io::H5File* f) {
+    f->SetAttribute("/samples", "sampling_config", sampling_config);
+    std::vector<uint8_t> origin(count, 0);
+    for (int64_t i = kept; i < count; ++i) origin[i] = 1;
+    f->WriteVector("/samples/origin", origin);
+    f->SetAttribute("/samples/origin", "meaning",
+                    std::string("0: a sample of " + o.samples + ", 1: new, seeded by a gap frame"));
+    f->WriteVector("/expansion/gap_frames", gaps.frames);
+    f->SetAttribute("/expansion/gap_frames", "meaning",
+                    std::string("frames of " + o.frame_codes + " whose solutions seed the new samples"));
+    f->WriteVector("/expansion/gap_score", gaps.score);
+    f->SetAttribute("/expansion/gap_score", "meaning",
+                    std::string("each real frame's mean code distance to its nearest samples (0: no face)"));
+    f->SetAttribute("/expansion", "threshold", gaps.threshold);
+  };
+  SynthSamplesRun run(sampling, std::move(source), ctx, resolved);
+  run.ReadRig();
+  sparsity = run.sparsity();
+  run.Run();
 }
 
 }  // namespace
@@ -285,6 +439,16 @@ void RegisterSynth(CLI::App* app, AppState* state) {
       "identical for any rank count, resumable",
       PathKeys{{"rig"}, {{"out", OutputKind::kHdf5}}},
       RunSynthSamples);
+  AddStage<SynthExpandOptions>(
+      synth, state, "expand", "synth.expand", "synth expand",
+      "Expand a contracted sample set (paper 000 Sec. 7.2): the real frames whose deepfake codes "
+      "lie farthest from every sample's are gaps; the tracker's solutions on them, jittered per "
+      "control (D w, d_i in [jitter_low, jitter_high]) and interpolated between pairs, are "
+      "rendered as new samples with the set's own sampling options; identical for any rank "
+      "count, resumable",
+      PathKeys{{"rig", "samples", "frame_codes", "track"}, {{"out", OutputKind::kHdf5}}},
+      RunSynthExpand);
+  RegisterSynthContract(synth, state);
   RegisterSynthClip(synth, state);
   RegisterSynthCrops(synth, state);
 }

@@ -1,0 +1,250 @@
+// facecap synth contract: the random samples that no real frame resembles, judged in a first
+// deepfake's latent space, removed (paper 000 Sec. 7.1, Fig. 16).
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "io/image_io.h"
+#include "nn/augment.h"
+#include "render/contact_sheet.h"
+#include "stages/cli.h"
+#include "stages/registry.h"
+#include "stages/sample_file.h"
+#include "stages/stage_paths.h"
+#include "synth/sample_set.h"
+#include "util/errors.h"
+#include "util/log.h"
+
+namespace facecap::stages {
+namespace {
+
+// [synth.contract]
+struct SynthContractOptions {
+  std::string samples = "samples.h5";              // the random samples
+  std::string sample_codes = "samples_codes.h5";   // deepfake infer of the samples
+  std::string frame_codes = "translated.h5";       // deepfake infer of the footage crops
+  std::string frames = "";                         // the footage crops, for the sheet
+  std::string out = "contracted.h5";               // output file
+  std::string sheet = "";                          // PNG ("": beside out; "none": no sheet)
+  int neighbors = 5;                               // k of the mean k-nearest distance
+  double remove_fraction = 0.2;                    // samples removed (threshold = 0)
+  double threshold = 0;                            // a fixed score bound instead (> 0)
+  int sheet_rows = 6;                              // samples per side of the sheet
+
+  template <class V>
+  void Visit(V&& v) {
+    v("samples", samples, "samples file (synth samples, or a set synth expand made)");
+    v("sample_codes", sample_codes,
+      "deepfake infer's output on the samples (--dataset /samples/segmentation): their codes "
+      "E(I) in /frames/latent");
+    v("frame_codes", frame_codes,
+      "deepfake infer's output on the footage crops, from the same model: their codes E(I)");
+    v("frames", frames,
+      "the footage crops (ingest's output) shown on the sheet beside each sample (empty: their "
+      "translations from frame_codes)");
+    v("out", out, "output file (HDF5): the kept samples, their codes, every sample's score");
+    v("sheet", sheet,
+      "contact sheet PNG: the most and least in-distribution samples, each beside its nearest "
+      "real frame, kept ones framed green and removed ones red (default: beside out; none: no "
+      "sheet)");
+    v("neighbors", neighbors,
+      "k: a sample's score is the mean distance from its code to the k nearest real frames' codes");
+    v("remove_fraction", remove_fraction,
+      "fraction of the samples removed, those of the highest scores (used when threshold is 0)");
+    v("threshold", threshold,
+      "remove the samples scoring above this instead (> 0; e.g. a first contraction's "
+      "/contraction@threshold, to check new samples against the same bound)");
+    v("sheet_rows", sheet_rows, "rows of the sheet");
+  }
+  bool Check(std::string* why) const {
+    if (neighbors < 1) { *why = "neighbors must be at least 1"; return false; }
+    if (!(remove_fraction >= 0 && remove_fraction < 1)) {
+      *why = "remove_fraction must be in [0, 1)";
+      return false;
+    }
+    if (!(threshold >= 0)) { *why = "threshold must be >= 0"; return false; }
+    if (sheet_rows < 1) { *why = "sheet_rows must be at least 1"; return false; }
+    return true;
+  }
+};
+
+// The codes of a deepfake infer output, and which of its frames have a face.
+synth::CodeMatrix ReadCodes(const io::H5File& f, std::vector<int64_t>* rows) {
+  const io::Shape shape = f.CheckShape("/frames/latent", {-1, -1});
+  std::vector<uint8_t> found(shape[0], 1);
+  if (f.Exists("/frames/found")) found = f.ReadVector<uint8_t>("/frames/found", shape[0]);
+  const synth::CodeMatrix all = f.ReadMatrix<float>("/frames/latent");
+  rows->clear();
+  for (int64_t i = 0; i < shape[0]; ++i) {
+    if (found[i]) rows->push_back(i);
+  }
+  if (rows->size() == all.rows()) return all;
+  synth::CodeMatrix codes(rows->size(), all.cols());
+  for (size_t j = 0; j < rows->size(); ++j) codes.row(j) = all.row((*rows)[j]);
+  return codes;
+}
+
+// Square image `index` of `dataset` at `size` x `size` (bilinear).
+Image8 ReadTile(const io::H5File& f, const std::string& dataset, int64_t index, int size) {
+  const io::Shape shape = f.CheckShape(dataset, {-1, -1, -1, 3});
+  if (shape[1] != shape[2]) throw FileIOError(f.path() + ": " + dataset + " is not square");
+  const int source = static_cast<int>(shape[1]);
+  std::vector<uint8_t> pixels(3LL * source * source);
+  f.ReadFrames<uint8_t>(dataset, index, 1, pixels.data());
+  Image8 tile(size, size, 3);
+  std::vector<float> resized(3LL * size * size);
+  nn::ResizeToFloat(pixels.data(), source, size, resized.data());
+  for (size_t k = 0; k < resized.size(); ++k) {
+    tile.data[k] = static_cast<uint8_t>(std::lround(std::clamp(resized[k], 0.f, 1.f) * 255.f));
+  }
+  return tile;
+}
+
+// A 2-pixel frame of `rgb` around a tile.
+void FrameTile(Image8* tile, const uint8_t rgb[3]) {
+  for (int y = 0; y < tile->height; ++y) {
+    for (int x = 0; x < tile->width; ++x) {
+      if (x >= 2 && y >= 2 && x < tile->width - 2 && y < tile->height - 2) continue;
+      std::copy(rgb, rgb + 3, tile->pixel(x, y));
+    }
+  }
+}
+
+void RunSynthContract(const StageFlags& flags, AppState* state) {
+  StageContext ctx{state->comm, {}, state->command_line};
+  io::Config resolved;
+  const auto o = ResolveStageOptions<SynthContractOptions>(flags, &ctx, &resolved);
+  if (!ctx.comm.IsMainRank()) return;  // seconds of work for thousands of samples: rank 0 alone
+  const io::H5File samples = io::H5File::OpenRead(o.samples);
+  const std::string sampling_config = SamplingConfig(samples);
+  const io::Shape seg = samples.CheckShape("/samples/segmentation", {-1, -1, -1, 3});
+  const int64_t n = seg[0];
+  const io::H5File sample_codes_file = io::H5File::OpenRead(o.sample_codes);
+  const io::H5File frame_codes_file = io::H5File::OpenRead(o.frame_codes);
+  std::vector<int64_t> sample_rows, real_rows;
+  const synth::CodeMatrix sample_codes = ReadCodes(sample_codes_file, &sample_rows);
+  if (static_cast<int64_t>(sample_rows.size()) != n) {
+    throw FileIOError(o.sample_codes + ": codes of " + std::to_string(sample_rows.size()) +
+                      " images, " + o.samples + " has " + std::to_string(n) +
+                      " samples (run deepfake infer on the samples)");
+  }
+  const synth::CodeMatrix real_codes = ReadCodes(frame_codes_file, &real_rows);
+  if (real_rows.empty()) throw FileIOError(o.frame_codes + ": no frame with a face");
+  if (real_codes.cols() != sample_codes.cols()) {
+    throw FileIOError(o.frame_codes + ": codes of " + std::to_string(real_codes.cols()) +
+                      " values, " + o.sample_codes + " has codes of " +
+                      std::to_string(sample_codes.cols()) + " (two different deepfakes)");
+  }
+
+  std::vector<int64_t> nearest;
+  const std::vector<double> score =
+      synth::MeanNearestDistance(sample_codes, real_codes, o.neighbors, false, &nearest);
+  const double threshold =
+      o.threshold > 0 ? o.threshold : synth::FractionThreshold(score, o.remove_fraction);
+  std::vector<uint8_t> kept(n, 1);
+  for (int64_t i : synth::ScoresAbove(score, threshold)) kept[i] = 0;
+  std::vector<int64_t> source;
+  for (int64_t i = 0; i < n; ++i) {
+    if (kept[i]) source.push_back(i);
+  }
+  if (source.empty()) {
+    throw InvalidInputError("synth contract: threshold " + std::to_string(threshold) +
+                            " removes every sample of " + o.samples);
+  }
+  const int64_t m = static_cast<int64_t>(source.size());
+  const int size = static_cast<int>(seg[1]);
+  const int S = static_cast<int>(samples.CheckShape("/samples/weights", {n, -1})[1]);
+
+  io::H5File f = io::H5File::CreateAtomic(o.out);
+  f.WriteProvenance(MakeProvenance(ctx, "synth contract", resolved));
+  const std::string framing = samples.HasAttribute("/samples/camera", "framing")
+                                  ? samples.GetStringAttribute("/samples/camera", "framing")
+                                  : std::string("the source set's");
+  CreateSampleDatasets(&f, size, S, m, framing);
+  CopySampleRecords(samples, &f);
+  f.SetAttribute("/samples", "sampling_config", sampling_config);
+  constexpr int64_t kBlock = 256;
+  for (int64_t begin = 0; begin < m; begin += kBlock) {
+    const int64_t end = std::min(m, begin + kBlock);
+    std::vector<int64_t> at(end - begin);
+    std::iota(at.begin(), at.end(), begin);
+    std::vector<std::vector<uint8_t>> rows;
+    for (int64_t j = begin; j < end; ++j) rows.push_back(ReadSampleRow(samples, source[j]));
+    WriteSampleRows(&f, at, rows);
+  }
+  synth::CodeMatrix kept_codes(m, sample_codes.cols());
+  for (int64_t j = 0; j < m; ++j) kept_codes.row(j) = sample_codes.row(source[j]);
+  f.WriteMatrix("/samples/latent", kept_codes);
+  f.SetAttribute("/samples/latent", "meaning",
+                 std::string("E(I) of each kept sample, from " + o.sample_codes));
+  f.WriteVector("/contraction/source_index", source);
+  f.SetAttribute("/contraction/source_index", "meaning",
+                 std::string("index of each kept sample in " + o.samples));
+  f.WriteVector("/contraction/score", score);
+  f.SetAttribute("/contraction/score", "meaning",
+                 std::string("every sample's mean code distance to its " +
+                             std::to_string(o.neighbors) + " nearest real frames"));
+  f.WriteVector("/contraction/kept", kept);
+  std::vector<int64_t> nearest_frame(n);
+  for (int64_t i = 0; i < n; ++i) nearest_frame[i] = real_rows[nearest[i]];
+  f.WriteVector("/contraction/nearest_frame", nearest_frame);
+  f.SetAttribute("/contraction/nearest_frame", "meaning",
+                 std::string("frame of " + o.frame_codes + " nearest each sample"));
+  f.SetAttribute("/contraction", "threshold", threshold);
+  f.SetAttribute("/contraction", "neighbors", static_cast<int64_t>(o.neighbors));
+  f.SetAttribute("/contraction", "removed", n - m);
+  f.Commit();
+  FC_INFO("synth contract: {} of {} samples removed (score above {:.4g}: mean code distance to the "
+          "{} nearest of {} real frames), {} kept -> {}",
+          n - m, n, threshold, o.neighbors, real_rows.size(), m, o.out);
+
+  if (o.sheet == "none") return;
+  // The sheet: per row, the i-th most in-distribution sample and its nearest real frame, then
+  // the i-th least in-distribution one and its nearest real frame.
+  std::vector<int64_t> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int64_t a, int64_t b) { return score[a] < score[b]; });
+  const int rows = static_cast<int>(std::min<int64_t>(o.sheet_rows, (n + 1) / 2));
+  const int tile = std::max(64, size);
+  std::string real_dataset = "/frames/translated";
+  io::H5File frames_file;
+  if (!o.frames.empty()) {
+    frames_file = io::H5File::OpenRead(o.frames);
+    real_dataset = frames_file.Exists("/frames/crop") ? "/frames/crop" : "/frames/image";
+  }
+  const io::H5File& real_images = o.frames.empty() ? frame_codes_file : frames_file;
+  const uint8_t green[3] = {40, 200, 60}, red[3] = {220, 40, 40};
+  std::vector<Image8> tiles;
+  for (int r = 0; r < rows; ++r) {
+    for (const int64_t i : {order[r], order[n - 1 - r]}) {
+      Image8 sample = ReadTile(samples, "/samples/segmentation", i, tile);
+      FrameTile(&sample, kept[i] ? green : red);
+      tiles.push_back(std::move(sample));
+      tiles.push_back(ReadTile(real_images, real_dataset, nearest_frame[i], tile));
+    }
+  }
+  render::ContactSheetOptions sheet_options;
+  sheet_options.columns = 4;
+  sheet_options.border = 2;
+  const std::string sheet_path = o.sheet.empty() ? WithSuffix(o.out, "_contraction.png") : o.sheet;
+  io::WriteImage(sheet_path, render::ContactSheet(tiles, sheet_options));
+  FC_INFO("synth contract: sheet -> {} (left: the most in-distribution samples, right: the least; "
+          "each beside its nearest real frame; green kept, red removed)",
+          sheet_path);
+}
+
+}  // namespace
+
+void RegisterSynthContract(CLI::App* synth, AppState* state) {
+  AddStage<SynthContractOptions>(
+      synth, state, "contract", "synth.contract", "synth contract",
+      "Contract a random sample set (paper 000 Sec. 7.1): a sample whose deepfake code lies far "
+      "from every real frame's (mean distance to the k nearest) is out of distribution; the "
+      "remove_fraction highest-scoring samples are removed, with a contact sheet of the most "
+      "and least in-distribution samples beside their nearest real frames",
+      PathKeys{{"samples", "sample_codes", "frame_codes", "frames"},
+               {{"out", OutputKind::kHdf5}, {"sheet", OutputKind::kImage}}},
+      RunSynthContract);
+}
+
+}  // namespace facecap::stages
