@@ -56,6 +56,12 @@ const std::map<std::string, StageInputs>& ValidRuns() {
       {"synth.samples", {{{"rig", "rig.h5"}}, "--count 2 --size 32", {}}},
       {"synth.clip", {{{"rig", "rig.h5"}, {"background_folder", ""}}, "--frames 2 --size 64", {}}},
       {"synth.sheet", {{{"clip", "clip.h5"}}, "", {}}},
+      {"synth.contract",
+       {{{"samples", "samples.h5"}, {"sample_codes", "codes.h5"}, {"frame_codes", "codes.h5"},
+         {"frames", ""}, {"bound", "contracted.h5"}}, "", {}}},
+      {"synth.expand",
+       {{{"rig", "rig.h5"}, {"samples", "contracted.h5"}, {"frame_codes", "codes.h5"},
+         {"track", "track.h5"}}, "", {}}},
       {"synth.crops", {{{"clip", "clip.h5"}, {"frames", "frames.h5"}}, "", {}}},
       {"ingest",
        {{{"video", "clip.mp4"}, {"images", ""}, {"landmark_model", kDlibModel}}, "--threads 1",
@@ -168,6 +174,10 @@ class BadInputSweep : public ::testing::Test {
         "--out track.h5",
         "track --rig rig.h5 --targets clip.h5 --out clip_track.h5 --levels 1 --epochs 1",
         "deepfake train --a samples.h5 --b clip.h5 --out deepfake.h5 --steps 1 --batch 2",
+        "deepfake infer --model deepfake.h5 --frames samples.h5 --dataset /samples/segmentation "
+        "--out codes.h5 --no-flip-average --shift-average 0 --no-contours",
+        "synth contract --samples samples.h5 --sample-codes codes.h5 --frame-codes codes.h5 "
+        "--out contracted.h5 --sheet none",
         "scans synth --out scans.h5 --people 4 --test-people 1 --threads 1",
         "blendshapes train --scans scans.h5 --out bsgen.h5 --estimation-epochs 1 "
         "--tuning-epochs 1 --batch 2 --threads 1 --channels 4",

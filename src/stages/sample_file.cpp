@@ -115,6 +115,22 @@ void WriteSampleRows(io::H5File* f, const std::vector<int64_t>& indices,
   }
 }
 
+synth::CodeMatrix ReadCodes(const io::H5File& f, const std::string& dataset,
+                            std::vector<int64_t>* rows) {
+  const io::Shape shape = f.CheckShape(dataset, {-1, -1});
+  std::vector<uint8_t> found(shape[0], 1);
+  if (f.Exists("/frames/found")) found = f.ReadVector<uint8_t>("/frames/found", shape[0]);
+  const synth::CodeMatrix all = f.ReadMatrix<float>(dataset);
+  rows->clear();
+  for (int64_t i = 0; i < shape[0]; ++i) {
+    if (found[i]) rows->push_back(i);
+  }
+  if (static_cast<int64_t>(rows->size()) == all.rows()) return all;
+  synth::CodeMatrix codes(rows->size(), all.cols());
+  for (size_t j = 0; j < rows->size(); ++j) codes.row(j) = all.row((*rows)[j]);
+  return codes;
+}
+
 std::string SamplingConfig(const io::H5File& f) {
   if (f.HasAttribute("/samples", "sampling_config")) {
     return f.GetStringAttribute("/samples", "sampling_config");

@@ -13,6 +13,7 @@
 #include "io/hdf5.h"
 #include "render/camera.h"
 #include "rig/rig.h"
+#include "synth/sample_set.h"
 
 namespace facecap::stages {
 
@@ -39,6 +40,19 @@ std::vector<uint8_t> ReadSampleRow(const io::H5File& f, int64_t index);
 // Writes packed rows at `indices` (ascending; contiguous runs written at once).
 void WriteSampleRows(io::H5File* f, const std::vector<int64_t>& indices,
                      const std::vector<std::vector<uint8_t>>& rows);
+
+// The codes of deepfake infer's outputs that a sample set is shaped with (synth contract,
+// synth expand): each sample's E(I_S), and each real frame's E(D_A(E(I_R))), its translation
+// encoded, in the samples' own domain. Ranking the samples by their distance to the real
+// frames' E(I_R) instead agreed half as well with their distance to the footage's true
+// parameters (analysis/contraction_codes.py).
+inline constexpr char kSampleCodes[] = "/frames/latent";
+inline constexpr char kFrameCodes[] = "/frames/latent_of_translation";
+
+// The codes in `dataset` of a deepfake infer output, of the frames with a face (all, without
+// /frames/found); their frame indices in *rows. FileIOError naming the file when missing.
+synth::CodeMatrix ReadCodes(const io::H5File& f, const std::string& dataset,
+                            std::vector<int64_t>* rows);
 
 // The resolved [synth.samples] configuration the samples of `f` were drawn and rendered
 // with: /samples@sampling_config when present (a contracted or expanded set), else the root

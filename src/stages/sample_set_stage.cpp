@@ -1,5 +1,6 @@
 // facecap synth contract: the random samples that no real frame resembles, judged in a first
-// deepfake's latent space, removed (paper 000 Sec. 7.1, Fig. 16).
+// deepfake's latent space, removed (paper 000 Sec. 7.1, Fig. 16). The samples' codes E(I_S)
+// are compared with the real frames' E(D_A(E(I_R))) (stages/sample_file.h).
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -28,7 +29,7 @@ struct SynthContractOptions {
   std::string sheet = "";                          // PNG ("": beside out; "none": no sheet)
   int neighbors = 5;                               // k of the mean k-nearest distance
   double remove_fraction = 0.2;                    // samples removed (threshold = 0)
-  double threshold = 0;                            // a fixed score bound instead (> 0)
+  std::string bound = "";                          // an earlier contraction's output
   int sheet_rows = 6;                              // samples per side of the sheet
 
   template <class V>
@@ -38,7 +39,8 @@ struct SynthContractOptions {
       "deepfake infer's output on the samples (--dataset /samples/segmentation): their codes "
       "E(I) in /frames/latent");
     v("frame_codes", frame_codes,
-      "deepfake infer's output on the footage crops, from the same model: their codes E(I)");
+      "deepfake infer's output on the footage crops, from the same model: their translations' "
+      "codes E(D_A(E(I))) in /frames/latent_of_translation");
     v("frames", frames,
       "the footage crops (ingest's output) shown on the sheet beside each sample (empty: their "
       "translations from frame_codes)");
@@ -51,9 +53,10 @@ struct SynthContractOptions {
       "k: a sample's score is the mean distance from its code to the k nearest real frames' codes");
     v("remove_fraction", remove_fraction,
       "fraction of the samples removed, those of the highest scores (used when threshold is 0)");
-    v("threshold", threshold,
-      "remove the samples scoring above this instead (> 0; e.g. a first contraction's "
-      "/contraction@threshold, to check new samples against the same bound)");
+    v("bound", bound,
+      "an earlier synth contract output: remove the samples scoring above its bound "
+      "(/contraction@threshold) instead of remove_fraction, e.g. to check an expanded set's new "
+      "samples against the first contraction (codes from the same deepfake)");
     v("sheet_rows", sheet_rows, "rows of the sheet");
   }
   bool Check(std::string* why) const {
@@ -62,27 +65,10 @@ struct SynthContractOptions {
       *why = "remove_fraction must be in [0, 1)";
       return false;
     }
-    if (!(threshold >= 0)) { *why = "threshold must be >= 0"; return false; }
     if (sheet_rows < 1) { *why = "sheet_rows must be at least 1"; return false; }
     return true;
   }
 };
-
-// The codes of a deepfake infer output, and which of its frames have a face.
-synth::CodeMatrix ReadCodes(const io::H5File& f, std::vector<int64_t>* rows) {
-  const io::Shape shape = f.CheckShape("/frames/latent", {-1, -1});
-  std::vector<uint8_t> found(shape[0], 1);
-  if (f.Exists("/frames/found")) found = f.ReadVector<uint8_t>("/frames/found", shape[0]);
-  const synth::CodeMatrix all = f.ReadMatrix<float>("/frames/latent");
-  rows->clear();
-  for (int64_t i = 0; i < shape[0]; ++i) {
-    if (found[i]) rows->push_back(i);
-  }
-  if (rows->size() == all.rows()) return all;
-  synth::CodeMatrix codes(rows->size(), all.cols());
-  for (size_t j = 0; j < rows->size(); ++j) codes.row(j) = all.row((*rows)[j]);
-  return codes;
-}
 
 // Square image `index` of `dataset` at `size` x `size` (bilinear).
 Image8 ReadTile(const io::H5File& f, const std::string& dataset, int64_t index, int size) {
@@ -122,13 +108,13 @@ void RunSynthContract(const StageFlags& flags, AppState* state) {
   const io::H5File sample_codes_file = io::H5File::OpenRead(o.sample_codes);
   const io::H5File frame_codes_file = io::H5File::OpenRead(o.frame_codes);
   std::vector<int64_t> sample_rows, real_rows;
-  const synth::CodeMatrix sample_codes = ReadCodes(sample_codes_file, &sample_rows);
+  const synth::CodeMatrix sample_codes = ReadCodes(sample_codes_file, kSampleCodes, &sample_rows);
   if (static_cast<int64_t>(sample_rows.size()) != n) {
     throw FileIOError(o.sample_codes + ": codes of " + std::to_string(sample_rows.size()) +
                       " images, " + o.samples + " has " + std::to_string(n) +
                       " samples (run deepfake infer on the samples)");
   }
-  const synth::CodeMatrix real_codes = ReadCodes(frame_codes_file, &real_rows);
+  const synth::CodeMatrix real_codes = ReadCodes(frame_codes_file, kFrameCodes, &real_rows);
   if (real_rows.empty()) throw FileIOError(o.frame_codes + ": no frame with a face");
   if (real_codes.cols() != sample_codes.cols()) {
     throw FileIOError(o.frame_codes + ": codes of " + std::to_string(real_codes.cols()) +
@@ -136,11 +122,36 @@ void RunSynthContract(const StageFlags& flags, AppState* state) {
                       std::to_string(sample_codes.cols()) + " (two different deepfakes)");
   }
 
+  double bound_threshold = 0;
+  if (!o.bound.empty()) {
+    const io::H5File bound = io::H5File::OpenRead(o.bound);
+    if (!bound.HasAttribute("/contraction", "threshold")) {
+      throw FileIOError(o.bound + ": not a synth contract output (no /contraction@threshold)");
+    }
+    bound_threshold = bound.GetDoubleAttribute("/contraction", "threshold");
+  }
+  const bool sheet = o.sheet != "none";
+  io::H5File frames_file;
+  std::string real_dataset = "/frames/translated";
+  if (sheet && !o.frames.empty()) {
+    frames_file = io::H5File::OpenRead(o.frames);
+    real_dataset = frames_file.Exists("/frames/crop") ? "/frames/crop" : "/frames/image";
+  }
+  const io::H5File& real_images = o.frames.empty() ? frame_codes_file : frames_file;
+  if (sheet) {
+    const io::Shape shape = real_images.CheckShape(real_dataset, {-1, -1, -1, 3});
+    if (shape[0] <= *std::max_element(real_rows.begin(), real_rows.end())) {
+      throw FileIOError(real_images.path() + ": " + real_dataset + " has " +
+                        std::to_string(shape[0]) + " images, " + o.frame_codes + " codes of " +
+                        std::to_string(real_rows.back() + 1) + " frames");
+    }
+  }
+
   std::vector<int64_t> nearest;
   const std::vector<double> score =
       synth::MeanNearestDistance(sample_codes, real_codes, o.neighbors, false, &nearest);
-  const double threshold =
-      o.threshold > 0 ? o.threshold : synth::FractionThreshold(score, o.remove_fraction);
+  const double threshold = o.bound.empty() ? synth::FractionThreshold(score, o.remove_fraction)
+                                           : bound_threshold;
   std::vector<uint8_t> kept(n, 1);
   for (int64_t i : synth::ScoresAbove(score, threshold)) kept[i] = 0;
   std::vector<int64_t> source;
@@ -198,7 +209,7 @@ void RunSynthContract(const StageFlags& flags, AppState* state) {
           "{} nearest of {} real frames), {} kept -> {}",
           n - m, n, threshold, o.neighbors, real_rows.size(), m, o.out);
 
-  if (o.sheet == "none") return;
+  if (!sheet) return;
   // The sheet: per row, the i-th most in-distribution sample and its nearest real frame, then
   // the i-th least in-distribution one and its nearest real frame.
   std::vector<int64_t> order(n);
@@ -206,13 +217,6 @@ void RunSynthContract(const StageFlags& flags, AppState* state) {
   std::stable_sort(order.begin(), order.end(), [&](int64_t a, int64_t b) { return score[a] < score[b]; });
   const int rows = static_cast<int>(std::min<int64_t>(o.sheet_rows, (n + 1) / 2));
   const int tile = std::max(64, size);
-  std::string real_dataset = "/frames/translated";
-  io::H5File frames_file;
-  if (!o.frames.empty()) {
-    frames_file = io::H5File::OpenRead(o.frames);
-    real_dataset = frames_file.Exists("/frames/crop") ? "/frames/crop" : "/frames/image";
-  }
-  const io::H5File& real_images = o.frames.empty() ? frame_codes_file : frames_file;
   const uint8_t green[3] = {40, 200, 60}, red[3] = {220, 40, 40};
   std::vector<Image8> tiles;
   for (int r = 0; r < rows; ++r) {
@@ -242,8 +246,8 @@ void RegisterSynthContract(CLI::App* synth, AppState* state) {
       "from every real frame's (mean distance to the k nearest) is out of distribution; the "
       "remove_fraction highest-scoring samples are removed, with a contact sheet of the most "
       "and least in-distribution samples beside their nearest real frames",
-      PathKeys{{"samples", "sample_codes", "frame_codes", "frames"},
-               {{"out", OutputKind::kHdf5}, {"sheet", OutputKind::kImage}}},
+      PathKeys{{"samples", "sample_codes", "frame_codes", "frames", "bound"},
+               {{"out", OutputKind::kHdf5}}},
       RunSynthContract);
 }
 

@@ -255,7 +255,8 @@ struct SynthExpandOptions {
     v("rig", rig, "rig file the samples were rendered with (HDF5)");
     v("samples", samples, "samples to expand: synth contract's output (with /samples/latent)");
     v("frame_codes", frame_codes,
-      "deepfake infer's output on the footage crops (/frames/latent: each frame's code E(I))");
+      "deepfake infer's output on the footage crops (/frames/latent_of_translation: each "
+      "frame's translation's code E(D_A(E(I))))");
     v("track", track, "the tracker's solutions on the same frames (track --frames TRANSLATED)");
     v("out", out, "output file (HDF5): the samples, then the new ones");
     v("count", count,
@@ -301,35 +302,30 @@ struct Gaps {
   std::vector<int64_t> frames;   // indices into the frames (and the track), ascending
   std::vector<double> score;     // every real frame's mean distance to its nearest samples
   double threshold = 0;
+  int64_t real_frames = 0;       // frames with a face
   std::vector<synth::SeedParams> seeds;
 };
 
 Gaps FindGaps(const SynthExpandOptions& o, const io::H5File& samples, int num_shapes) {
   const io::H5File codes = io::H5File::OpenRead(o.frame_codes);
-  const io::Shape frame_shape = codes.CheckShape("/frames/latent", {-1, -1});
+  std::vector<int64_t> real;
+  const synth::CodeMatrix real_codes = ReadCodes(codes, kFrameCodes, &real);
+  const int64_t frames = codes.CheckShape(kFrameCodes, {-1, -1})[0];
   const io::Shape sample_shape = samples.CheckShape("/samples/latent", {-1, -1});
-  if (frame_shape[1] != sample_shape[1]) {
-    throw FileIOError(o.frame_codes + ": codes of " + std::to_string(frame_shape[1]) + " values, " +
-                      o.samples + " has codes of " + std::to_string(sample_shape[1]) +
+  if (real_codes.cols() != sample_shape[1]) {
+    throw FileIOError(o.frame_codes + ": codes of " + std::to_string(real_codes.cols()) +
+                      " values, " + o.samples + " has codes of " + std::to_string(sample_shape[1]) +
                       " (made by another deepfake)");
   }
   const io::H5File track = io::H5File::OpenRead(o.track);
-  track.CheckShape("/track/weights", {frame_shape[0], num_shapes});
-  track.CheckShape("/track/pose", {frame_shape[0], 3});
-  std::vector<uint8_t> found(frame_shape[0], 1);
-  if (codes.Exists("/frames/found")) found = codes.ReadVector<uint8_t>("/frames/found", frame_shape[0]);
-  std::vector<int64_t> real;
-  for (int64_t i = 0; i < frame_shape[0]; ++i) {
-    if (found[i]) real.push_back(i);
-  }
+  track.CheckShape("/track/weights", {frames, num_shapes});
+  track.CheckShape("/track/pose", {frames, 3});
   if (real.empty()) throw FileIOError(o.frame_codes + ": no frame with a face");
-  const synth::CodeMatrix all = codes.ReadMatrix<float>("/frames/latent");
-  synth::CodeMatrix real_codes(real.size(), all.cols());
-  for (size_t j = 0; j < real.size(); ++j) real_codes.row(j) = all.row(real[j]);
   Gaps gaps;
+  gaps.real_frames = static_cast<int64_t>(real.size());
   const std::vector<double> score = synth::MeanNearestDistance(
       real_codes, samples.ReadMatrix<float>("/samples/latent"), o.neighbors, false, nullptr);
-  gaps.score.assign(frame_shape[0], 0.0);
+  gaps.score.assign(frames, 0.0);
   for (size_t j = 0; j < real.size(); ++j) gaps.score[real[j]] = score[j];
   gaps.threshold = synth::FractionThreshold(score, o.gap_fraction);
   for (int64_t j : synth::ScoresAbove(score, gaps.threshold)) gaps.frames.push_back(real[j]);
@@ -391,9 +387,9 @@ void RunSynthExpand(const StageFlags& flags, AppState* state) {
     seeds[i].weights = Eigen::Map<const Eigen::VectorXf>(v + 2, S);
   }
   if (comm.IsMainRank()) {
-    FC_INFO("synth expand: {} of {} real frames are gaps (mean distance to the {} nearest samples "
-            "above {:.4g}); {} kept samples + {} new from their solutions",
-            gaps.frames.size(), gaps.score.size(), o.neighbors, gaps.threshold, kept, count - kept);
+    FC_INFO("synth expand: {} of {} real frames with a face are gaps (mean code distance to the "
+            "{} nearest samples above {:.4g}); {} samples kept + {} new from their solutions",
+            gaps.frames.size(), gaps.real_frames, o.neighbors, gaps.threshold, kept, count - kept);
   }
   SampleSource source;
   source.stage = "synth expand";
