@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "io/hdf5.h"
+#include "io/rig_io.h"
 #include "testing/testing.h"
 #include "util/random.h"
 
@@ -152,6 +153,20 @@ TEST_F(SampleSet, ExpansionIsTheSameOnOneTwoAndThreeRanksAndFollowsTheGaps) {
     EXPECT_GE(w(i, jaw), 0.4f) << i;
     EXPECT_LE(w(i, jaw), 0.72f) << i;
     EXPECT_NEAR(pose(i, 1), 0.3f, 0.2f) << i;
+  }
+  // A rig of other shapes than the samples' is refused, naming it.
+  {
+    rig::Rig fewer = io::ReadRigFile(File("rig.h5"));
+    fewer.shapes.erase(fewer.shapes.begin());  // eyeBlinkLeft: every sparsity group still matches
+    io::H5File f = io::H5File::CreateAtomic(File("rig_fewer.h5"));
+    io::WriteRig(fewer, &f);
+    f.Commit();
+    std::string args = Expand(File("other_rig.h5"));
+    args.replace(args.find(File("rig.h5")), File("rig.h5").size(), File("rig_fewer.h5"));
+    auto r = RunFacecap(args);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("rig_fewer.h5"), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(File("other_rig.h5")));
   }
   // Killed and rerun, it continues to the same set.
   const std::string killed = File("killed.h5");

@@ -129,7 +129,8 @@ class SynthSamplesRun {
     }
   }
 
-  // The rig's shape names resolved into the sparsity groups (after Run or ReadRig).
+  // The rig, and its shape names resolved into the sparsity groups (after Run or ReadRig).
+  const rig::Rig& rig() const { return rig_; }
   const synth::Sparsity& sparsity() const { return sparsity_; }
 
   // The rig and the sparsity groups of its shapes (every rank).
@@ -141,7 +142,11 @@ class SynthSamplesRun {
         throw FileIOError(o_.rig + ": the rig has " + std::to_string(rig_.landmarks.size()) +
                           " landmarks, " + source_.stage + " needs the 68 iBUG landmarks");
       }
-      sparsity_ = synth::ResolveSparsity(rig_, so_);
+      try {
+        sparsity_ = synth::ResolveSparsity(rig_, so_);
+      } catch (const InvalidInputError& e) {
+        throw InvalidInputError(o_.rig + ": " + e.what());
+      }
     });
     rig_read_ = true;
     if (comm_.IsMainRank() && !sparsity_.ungrouped.empty()) {
@@ -419,6 +424,13 @@ void RunSynthExpand(const StageFlags& flags, AppState* state) {
   };
   SynthSamplesRun run(sampling, std::move(source), ctx, resolved);
   run.ReadRig();
+  std::vector<std::string> rig_names;
+  for (const auto& shape : run.rig().shapes) rig_names.push_back(shape.name);
+  if (rig_names != samples.ReadStrings("/samples/shape_names")) {
+    throw InvalidInputError(o.rig + ": its " + std::to_string(rig_names.size()) +
+                            " shapes are not the " + std::to_string(S) + " shapes of " +
+                            o.samples + " (give the rig the samples were rendered with)");
+  }
   sparsity = run.sparsity();
   run.Run();
 }
