@@ -28,7 +28,7 @@ struct SynthContractOptions {
   std::string out = "contracted.h5";               // output file
   std::string sheet = "";                          // PNG ("": beside out; "none": no sheet)
   int neighbors = 5;                               // k of the mean k-nearest distance
-  double remove_fraction = 0.2;                    // samples removed (threshold = 0)
+  double remove_fraction = 0.2;                    // samples removed (without bound)
   std::string bound = "";                          // an earlier contraction's output
   int sheet_rows = 6;                              // samples per side of the sheet
 
@@ -52,7 +52,7 @@ struct SynthContractOptions {
     v("neighbors", neighbors,
       "k: a sample's score is the mean distance from its code to the k nearest real frames' codes");
     v("remove_fraction", remove_fraction,
-      "fraction of the samples removed, those of the highest scores (used when threshold is 0)");
+      "fraction of the samples removed, those of the highest scores (unless bound is given)");
     v("bound", bound,
       "an earlier synth contract output: remove the samples scoring above its bound "
       "(/contraction@threshold) instead of remove_fraction, e.g. to check an expanded set's new "

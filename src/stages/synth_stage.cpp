@@ -262,7 +262,8 @@ struct SynthExpandOptions {
     v("frame_codes", frame_codes,
       "deepfake infer's output on the footage crops (/frames/latent_of_translation: each "
       "frame's translation's code E(D_A(E(I))))");
-    v("track", track, "the tracker's solutions on the same frames (track --frames TRANSLATED)");
+    v("track", track, "the tracker's solutions on the same frames: its track of the footage, a "
+      "row per frame of frame_codes");
     v("out", out, "output file (HDF5): the samples, then the new ones");
     v("count", count,
       "samples in the output, the kept ones included (0: the count the random set was drawn "
