@@ -4,7 +4,6 @@
 
 #include <torch/torch.h>
 
-#include "nn/adam.h"
 #include "nn/parameter_vector.h"
 #include "util/errors.h"
 #include "util/hash.h"
@@ -182,38 +181,21 @@ void Regressor::OptimizerStep(Phase phase) {
   AdamStep step;
   step.step = ++m.steps;
   step.learning_rate = m.options.learning_rate;
-  torch::NoGradGuard no_grad;
-  int64_t offset = 0;
-  for (size_t t = 0; t < m.parameters.size(); ++t) {
-    const int64_t n = m.parameters[t].numel();
-    if (Impl::Trains(phase, m.owner[t])) {
-      AdamUpdate(step, m.gradient.data() + offset, m.parameters[t].data_ptr<float>(),
-                 m.adam_m.data() + offset, m.adam_v.data() + offset, n);
-    }
-    offset += n;
-  }
+  AdamOverTensors(step, &m.parameters, m.gradient.data(), m.adam_m.data(), m.adam_v.data(),
+                  [&](size_t t) { return Impl::Trains(phase, m.owner[t]); });
 }
 
 std::vector<float> Regressor::State() const {
   const Impl& m = *impl_;
-  std::vector<float> state = FlattenParameters(m.parameters);
-  state.insert(state.end(), m.adam_m.begin(), m.adam_m.end());
-  state.insert(state.end(), m.adam_v.begin(), m.adam_v.end());
-  state.push_back(static_cast<float>(m.steps));
-  return state;
+  return OptimizerState(m.parameters, m.adam_m, m.adam_v, m.steps);
 }
 
 void Regressor::SetState(const std::vector<float>& state) {
   Impl& m = *impl_;
-  const int64_t n = m.num_parameters;
-  if (static_cast<int64_t>(state.size()) != 3 * n + 1) {
+  if (!SetOptimizerState(state, &m.parameters, &m.adam_m, &m.adam_v, &m.steps)) {
     throw FileIOError("regressor: a state of " + std::to_string(state.size()) + " values, the networks need " +
-                      std::to_string(3 * n + 1));
+                      std::to_string(3 * m.num_parameters + 1));
   }
-  SetFlatParameters(std::vector<float>(state.begin(), state.begin() + n), &m.parameters);
-  std::copy(state.begin() + n, state.begin() + 2 * n, m.adam_m.begin());
-  std::copy(state.begin() + 2 * n, state.begin() + 3 * n, m.adam_v.begin());
-  m.steps = static_cast<int64_t>(state[3 * n]);
 }
 
 uint64_t Regressor::ParameterHash() const {

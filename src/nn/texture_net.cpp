@@ -4,7 +4,6 @@
 
 #include <torch/torch.h>
 
-#include "nn/adam.h"
 #include "nn/parameter_vector.h"
 #include "util/errors.h"
 
@@ -150,14 +149,8 @@ void TextureNets::OptimizerStep() {
   AdamStep step;
   step.step = ++m.steps;
   step.learning_rate = m.options.learning_rate;
-  torch::NoGradGuard no_grad;
-  int64_t offset = 0;
-  for (auto& p : m.parameters) {
-    const int64_t n = p.numel();
-    AdamUpdate(step, m.gradient.data() + offset, p.data_ptr<float>(), m.adam_m.data() + offset,
-               m.adam_v.data() + offset, n);
-    offset += n;
-  }
+  AdamOverTensors(step, &m.parameters, m.gradient.data(), m.adam_m.data(), m.adam_v.data(),
+                  [](size_t) { return true; });
 }
 
 std::vector<float> TextureNets::Parameters() const { return FlattenParameters(impl_->parameters); }
@@ -171,21 +164,14 @@ void TextureNets::SetParameters(const std::vector<float>& parameters) {
 }
 
 std::vector<float> TextureNets::State() const {
-  std::vector<float> state = Parameters();
-  state.insert(state.end(), impl_->adam_m.begin(), impl_->adam_m.end());
-  state.insert(state.end(), impl_->adam_v.begin(), impl_->adam_v.end());
-  state.push_back(static_cast<float>(impl_->steps));
-  return state;
+  return OptimizerState(impl_->parameters, impl_->adam_m, impl_->adam_v, impl_->steps);
 }
 
 void TextureNets::SetState(const std::vector<float>& state) {
   Impl& m = *impl_;
-  const int64_t n = m.num_parameters;
-  if (static_cast<int64_t>(state.size()) != 3 * n + 1) throw FileIOError("texture networks: checkpoint state has the wrong size");
-  SetParameters(std::vector<float>(state.begin(), state.begin() + n));
-  std::copy(state.begin() + n, state.begin() + 2 * n, m.adam_m.begin());
-  std::copy(state.begin() + 2 * n, state.begin() + 3 * n, m.adam_v.begin());
-  m.steps = static_cast<int64_t>(state[3 * n]);
+  if (!SetOptimizerState(state, &m.parameters, &m.adam_m, &m.adam_v, &m.steps)) {
+    throw FileIOError("texture networks: checkpoint state has the wrong size");
+  }
 }
 
 std::vector<float> TextureNets::Predict(const float* person, const float* expression) const {
