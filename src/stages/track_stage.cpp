@@ -11,6 +11,7 @@
 #include "lipsync/visemes.h"
 #include "render/framing.h"
 #include "stages/ingested_frames.h"
+#include "stages/track_file.h"
 #include "stages/person_file.h"
 #include "rig/arkit.h"
 #include "stages/cli.h"
@@ -24,9 +25,6 @@
 
 namespace facecap::stages {
 namespace {
-
-// /track/termination of a frame without a face (Ceres's codes are 0-2).
-constexpr int32_t kNoTarget = 3;
 
 // The solver's settings as the track stage defaults them: the landmark term on, each point
 // weighed by its inverse squared measured noise.
@@ -192,52 +190,6 @@ void PutFrameSolution(ByteWriter* w, const rig::RigidPose& p, const Eigen::Vecto
   w->Put<double>(summary.seconds);
 }
 
-// The per-frame datasets of /track in a new or continued output.
-void CreateTrackDatasets(io::H5File* f, int64_t frames, int S) {
-  f->CreateFrames<float>("/track/pose", {3}, frames, 1024, 4);
-  f->SetAttribute("/track/pose", "columns", std::string("pitch, yaw, roll"));
-  f->SetAttribute("/track/pose", "units", std::string("rad"));
-  f->CreateFrames<float>("/track/translation", {3}, frames, 1024, 4);
-  f->SetAttribute("/track/translation", "units", std::string("cm (camera space)"));
-  f->CreateFrames<float>("/track/scale", {}, frames, 1024, 4);
-  f->CreateFrames<float>("/track/weights", {S}, frames, 256, 4);
-  f->CreateFrames<double>("/track/cost", {}, frames, 1024, 4);
-  f->SetAttribute("/track/cost", "meaning",
-                  std::string("final 0.5 |F - T|^2 of the objective at full resolution"));
-  f->CreateFrames<double>("/track/initial_cost", {}, frames, 1024, 4);
-  f->CreateFrames<int32_t>("/track/iterations", {}, frames, 1024, 4);
-  f->CreateFrames<int32_t>("/track/evaluations", {}, frames, 1024, 4);
-  f->CreateFrames<int32_t>("/track/termination", {}, frames, 1024, 4);
-  f->SetAttribute("/track/termination", "codes",
-                  std::string("0 CONVERGENCE, 1 NO_CONVERGENCE, 2 FAILURE, 3 NO_TARGET (no face "
-                              "in the frame: not solved, the previous frame's solution held, "
-                              "or the neutral)"));
-  f->CreateFrames<double>("/track/seconds", {}, frames, 1024, 4);
-  f->SetAttribute("/track/seconds", "meaning", std::string("wall time of the frame's solve"));
-}
-
-// The source camera, frame indices, timecodes and frame rate of tracked footage crops.
-void WriteSourceFrames(io::H5File* f, const IngestedFrames& ingested, const std::string& frames_path,
-                       int64_t frames) {
-  f->SetAttribute("/camera/intrinsics", "fov_deg", ingested.fov_deg());
-  f->SetAttribute("/camera/intrinsics", "meaning",
-                  std::string("the source video's camera as assumed by ingest: poses are in "
-                              "its space, landmarks project to source pixels"));
-  f->SetAttribute("/track", "frames", frames_path);
-  std::vector<int64_t> index(frames);
-  std::vector<double> timecode(frames);
-  for (int64_t k = 0; k < frames; ++k) {
-    index[k] = ingested.SourceIndex(k);
-    timecode[k] = ingested.Timecode(k);
-  }
-  f->WriteVector("/track/source_index", index);
-  f->SetAttribute("/track/source_index", "meaning",
-                  std::string("frame index in the source video (or image index)"));
-  f->WriteVector("/track/timecode", timecode);
-  f->SetAttribute("/track/timecode", "units", std::string("seconds from the start of the video"));
-  if (ingested.fps() > 0.) f->SetAttribute("/track", "fps", ingested.fps());
-}
-
 // One track run: the rig, the targets and (for footage crops) the ingest output read on
 // every rank, the solver set up, the output opened on rank 0, and the work units solved.
 class TrackRun {
@@ -368,7 +320,7 @@ class TrackRun {
         ctx_, resolved_, "track", o_.out, units_,
         [&](io::H5File* f, bool resumed) {
           CreateTrackDatasets(f, frames_, S_);
-          if (!resumed) WriteTrackRecords(f);
+          if (!resumed) WriteRecords(f);
         },
         "work units");
     output_ = std::move(opened.output);
@@ -377,16 +329,10 @@ class TrackRun {
   }
 
   // The shape names, the camera and where the targets come from (a new output).
-  void WriteTrackRecords(io::H5File* f) {
+  void WriteRecords(io::H5File* f) {
     std::vector<std::string> names;
     for (const auto& s : rig_.shapes) names.push_back(s.name);
-    f->WriteStrings("/track/shape_names", names);
-    const render::Camera& c = out_camera_;
-    f->WriteVector<double>("/camera/intrinsics", {c.fx, c.fy, c.cx, c.cy});
-    f->SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
-    f->SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(distance_));
-    f->SetAttribute("/camera/intrinsics", "width", static_cast<double>(c.width));
-    f->SetAttribute("/camera/intrinsics", "height", static_cast<double>(c.height));
+    WriteTrackRecords(f, names, out_camera_, distance_);
     f->SetAttribute("/track", "targets", o_.targets);
     f->SetAttribute("/track", "targets_dataset", info_.images);
     f->SetAttribute("/track", "rig", o_.rig);
