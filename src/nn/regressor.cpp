@@ -131,9 +131,9 @@ void Regressor::Backward(Phase phase, const std::vector<RegressorExample>& batch
   gather(z.landmarks, &RegressorExample::landmarks, &lm, &has_landmarks);
   has_truth = has_truth * has_jaw * has_expression;
 
-  // Per example: mean absolute difference, masked.
-  auto l1 = [](const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
-    return (a - b).abs().mean(1) * mask;
+  // Per example: mean squared difference, masked.
+  auto mse = [](const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
+    return (a - b).pow(2).mean(1) * mask;
   };
   // Per example: sum over landmarks of max(0, distance - delta), masked.
   const float delta = m.options.landmark_margin;
@@ -152,9 +152,9 @@ void Regressor::Backward(Phase phase, const std::vector<RegressorExample>& batch
     const torch::Tensor from_truth = m.net[3]->forward(torch::cat({p, wj, wc}, 1));
     loss_l = hinge(predicted) + hinge(from_truth) * has_truth;
   } else {
-    loss_p = l1(P, p, has_truth);
-    loss_j = l1(J, wj, has_truth) + l1(m.net[1]->forward(torch::cat({e, p}, 1)), wj, has_truth);
-    loss_w = l1(W, wc, has_truth) + l1(m.net[2]->forward(torch::cat({e, p, wj}, 1)), wc, has_truth);
+    loss_p = mse(P, p, has_truth);
+    loss_j = mse(J, wj, has_truth) + mse(m.net[1]->forward(torch::cat({e, p}, 1)), wj, has_truth);
+    loss_w = mse(W, wc, has_truth) + mse(m.net[2]->forward(torch::cat({e, p, wj}, 1)), wc, has_truth);
     if (phase == Phase::kFineTune) loss_l = hinge(m.net[3]->forward(torch::cat({P, J, W}, 1)));
   }
   const torch::Tensor total =

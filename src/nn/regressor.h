@@ -15,8 +15,9 @@
 //   kFineTune           P, J, W with L frozen, on synthetic and real examples: L_P, L_J, L_W
 //                       where the truth is known, and L_L* = sum_k max(0, |L_k(P, J, W) - m_k|
 //                       - delta) wherever landmarks are known.
-// |.| of a vector is the mean absolute difference per value; |L_k - m_k| is landmark k's
-// Euclidean distance.
+// |.| of a pose or control vector difference is its mean squared value (with a mean absolute
+// difference the sigmoid outputs of the sparse controls saturate at 0 under Adam and never
+// fit); |L_k - m_k| is landmark k's Euclidean distance.
 //
 // Torch stays in regressor.cpp. Training follows facecap's data-parallel pattern: each rank's
 // Backward on its share of a step, the caller sums Gradients() over the ranks, and

@@ -28,6 +28,7 @@ void RegisterAll(CLI::App* app, AppState* state) {
   RegisterTextures(app, state);
   RegisterTexturesNetworks(app, state);
   RegisterLipsync(app, state);
+  RegisterRegress(app, state);
   RegisterRun(app, state);
 }
 

@@ -63,6 +63,13 @@ const std::map<std::string, StageInputs>& ValidRuns() {
        {{{"rig", "rig.h5"}, {"samples", "contracted.h5"}, {"frame_codes", "codes.h5"},
          {"track", "track.h5"}}, "", {}}},
       {"synth.crops", {{{"clip", "clip.h5"}, {"frames", "frames.h5"}}, "", {}}},
+      {"regress.train",
+       {{{"samples", "samples.h5"}, {"sample_codes", "codes.h5"}, {"frame_codes", "frame_codes.h5"},
+         {"frames", "frames.h5"}, {"rig", "rig.h5"}},
+        "--pose-steps 1 --landmark-steps 1 --finetune-steps 1 --batch 2 --hidden 8 --threads 1", {}}},
+      {"regress.infer",
+       {{{"model", "regressor.h5"}, {"codes", "frame_codes.h5"}, {"frames", "frames.h5"}, {"rig", "rig.h5"}},
+        "", {}}},
       {"ingest",
        {{{"video", "clip.mp4"}, {"images", ""}, {"landmark_model", kDlibModel}}, "--threads 1",
         {"video", "images"}}},
@@ -178,6 +185,10 @@ class BadInputSweep : public ::testing::Test {
         "--out codes.h5 --no-flip-average --shift-average 0 --no-contours",
         "synth contract --samples samples.h5 --sample-codes codes.h5 --frame-codes codes.h5 "
         "--out contracted.h5 --sheet none",
+        "deepfake infer --model deepfake.h5 --frames frames.h5 --out frame_codes.h5 --no-contours",
+        "regress train --samples samples.h5 --sample-codes codes.h5 --frame-codes frame_codes.h5 "
+        "--frames frames.h5 --rig rig.h5 --out regressor.h5 --pose-steps 1 --landmark-steps 1 "
+        "--finetune-steps 1 --batch 2 --hidden 8 --threads 1",
         "scans synth --out scans.h5 --people 4 --test-people 1 --threads 1",
         "blendshapes train --scans scans.h5 --out bsgen.h5 --estimation-epochs 1 "
         "--tuning-epochs 1 --batch 2 --threads 1 --channels 4",

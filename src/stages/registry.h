@@ -190,6 +190,8 @@ void RegisterTextures(CLI::App* app, AppState* state);
 void RegisterTexturesNetworks(CLI::App* app, AppState* state);
 // `lipsync blend` and `eval lipsync` (`lipsync track` is registered with track).
 void RegisterLipsync(CLI::App* app, AppState* state);
+// `regress train` and `regress infer`.
+void RegisterRegress(CLI::App* app, AppState* state);
 // Subcommand `name` (eval, export) of `app`, added with `description` on first use: several
 // files register subcommands under it.
 CLI::App* GroupSubcommand(CLI::App* app, const std::string& name, const std::string& description);

@@ -1,0 +1,170 @@
+// regress train and regress infer end to end on a synthetic clip filmed, ingested and cropped
+// like footage, with codes that determine the truth (a fixed linear map of each sample's and
+// frame's pose and controls, so that what the networks can learn is known): the three phases
+// keep one weight set on 2 and 3 ranks and a stopped run continues to the straight run's
+// weights; phase 1 fits its noiseless training set; infer writes a track that eval track
+// reads, the same on 1 and 2 ranks, its angles closer to the clip's truth than half the
+// frontal head's error.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "io/hdf5.h"
+#include "rig/pose.h"
+#include "stages/ingested_frames.h"
+#include "testing/testing.h"
+#include "util/errors.h"
+#include "util/random.h"
+
+namespace facecap::stages {
+namespace {
+
+using testing::RunFacecap;
+
+constexpr int kSamples = 800, kFrames = 12, kDim = 64;
+
+class Regress : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    ASSERT_EQ(RunFacecap("rig demo --out " + File("rig.h5")).code, 0);
+    auto r = RunFacecap("synth samples --rig " + File("rig.h5") + " --count " + std::to_string(kSamples) +
+                        " --size 32 --framing crop --fov-deg 40 --fill 0.5 --out " + File("samples.h5"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    r = RunFacecap("synth clip --rig " + File("rig.h5") + " --frames " + std::to_string(kFrames) +
+                   " --size 160 --fov-deg 40 --fill 0.5 --video --out " + File("clip.h5"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    r = RunFacecap("ingest --video " + File("clip.mp4") + " --out " + File("frames.h5") + " --crop-size 64");
+    ASSERT_EQ(r.code, 0) << r.output;
+    // The map from (pose / pi + 0.5, weights) to codes.
+    const io::H5File samples = io::H5File::OpenRead(File("samples.h5"));
+    const int64_t S = static_cast<int64_t>(samples.ReadStrings("/samples/shape_names").size());
+    Rng rng(5, 0);
+    map_.resize(kDim * (3 + S));
+    for (float& m : map_) m = static_cast<float>(rng.Normal() / std::sqrt(3.0 + S) * 4.0);
+    const auto pose = samples.Read<float>("/samples/pose", {kSamples, 3});
+    const auto weights = samples.Read<float>("/samples/weights", {kSamples, S});
+    std::vector<float> codes;
+    for (int i = 0; i < kSamples; ++i) AddCode(&pose[i * 3], &weights[i * S], S, &codes);
+    WriteCodes(File("sample_codes.h5"), codes, kSamples);
+    // The frames' codes from the clip's truth, the pose seen by each crop's camera.
+    const IngestedFrames ingested = IngestedFrames::Read(File("frames.h5"));
+    ASSERT_EQ(ingested.NumFrames(), kFrames);
+    const io::H5File clip = io::H5File::OpenRead(File("clip.h5"));
+    const auto clip_pose = clip.Read<float>("/frames/pose", {kFrames, 3});
+    const auto clip_translation = clip.Read<float>("/frames/translation", {kFrames, 3});
+    const auto clip_weights = clip.Read<float>("/frames/weights", {kFrames, S});
+    codes.clear();
+    for (int k = 0; k < kFrames; ++k) {
+      rig::RigidPose source;
+      source.pitch = clip_pose[k * 3];
+      source.yaw = clip_pose[k * 3 + 1];
+      source.roll = clip_pose[k * 3 + 2];
+      source.translation = Eigen::Vector3f(clip_translation[k * 3], clip_translation[k * 3 + 1],
+                                           clip_translation[k * 3 + 2]);
+      const rig::RigidPose crop = PoseInCrop(source, ingested.CropCamera(k, ingested.crop_size()));
+      const float angles[3] = {crop.pitch, crop.yaw, crop.roll};
+      AddCode(angles, &clip_weights[k * S], S, &codes);
+    }
+    WriteCodes(File("frame_codes.h5"), codes, kFrames);
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static std::string File(const std::string& name) { return dir_->File(name); }
+  static void AddCode(const float* pose, const float* weights, int64_t S, std::vector<float>* codes) {
+    std::vector<float> x;
+    for (int k = 0; k < 3; ++k) x.push_back(static_cast<float>(pose[k] / M_PI + 0.5));
+    x.insert(x.end(), weights, weights + S);
+    for (int d = 0; d < kDim; ++d) {
+      double sum = 0;
+      for (size_t j = 0; j < x.size(); ++j) sum += map_[d * x.size() + j] * x[j];
+      codes->push_back(static_cast<float>(sum));
+    }
+  }
+  static void WriteCodes(const std::string& path, const std::vector<float>& codes, int rows) {
+    io::H5File f = io::H5File::CreateAtomic(path);
+    f.Write<float>("/frames/latent_of_translation", {rows, kDim}, codes.data());
+    f.Commit();
+  }
+  static std::string Train(const std::string& out, const std::string& steps) {
+    return "regress train --samples " + File("samples.h5") + " --sample-codes " + File("sample_codes.h5") +
+           " --frame-codes " + File("frame_codes.h5") + " --frames " + File("frames.h5") + " --rig " +
+           File("rig.h5") + " --hidden 64 --batch 32 --threads 1 --checkpoint-every 20 " + steps + " --out " + out;
+  }
+  static std::string Infer(const std::string& model, const std::string& out) {
+    return "regress infer --model " + model + " --codes " + File("frame_codes.h5") + " --frames " +
+           File("frames.h5") + " --rig " + File("clip.h5") + " --out " + out;
+  }
+  static testing::TempDir* dir_;
+  static std::vector<float> map_;
+};
+testing::TempDir* Regress::dir_ = nullptr;
+std::vector<float> Regress::map_;
+
+TEST_F(Regress, ThePhasesKeepOneWeightSetOnEveryRankAndResume) {
+  const std::string steps = "--pose-steps 30 --landmark-steps 20 --finetune-steps 30";
+  for (int ranks : {2, 3}) {
+    auto r = RunFacecap(Train(File("ranks" + std::to_string(ranks) + ".h5"), steps), ranks);
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("weights identical on " + std::to_string(ranks) + " rank(s)"), std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("phase 3"), std::string::npos) << r.output;
+  }
+  // Stopped in phase 2, continued: the straight run's weights.
+  const std::string straight = File("straight.h5"), stopped = File("stopped.h5");
+  ASSERT_EQ(RunFacecap(Train(straight, steps)).code, 0);
+  auto stop = RunFacecap(Train(stopped, steps), 0, "FACECAP_FAULT_AFTER_STEPS=40");
+  EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
+  EXPECT_FALSE(std::filesystem::exists(stopped));
+  auto rerun = RunFacecap(Train(stopped, steps));
+  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  EXPECT_NE(rerun.output.find("continuing"), std::string::npos) << rerun.output;
+  const io::H5File a = io::H5File::OpenRead(straight), b = io::H5File::OpenRead(stopped);
+  EXPECT_EQ(a.ReadVector<float>("/regressor/state"), b.ReadVector<float>("/regressor/state"));
+  // Phases 2 and 3 train on: the landmarks that phase 2 taught L fit better than chance.
+  EXPECT_LT(a.GetDoubleAttribute("/regressor", "fit_samples_landmark_err"), 0.2);
+}
+
+TEST_F(Regress, PhaseOneFitsNoiselessCodesAndInferTracksTheClip) {
+  const std::string model = File("phase1.h5");
+  auto r = RunFacecap(Train(model, "--pose-steps 1500 --landmark-steps 0 --finetune-steps 0"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const io::H5File m = io::H5File::OpenRead(model);
+  EXPECT_LT(m.GetDoubleAttribute("/regressor", "fit_samples_angle_err_deg"), 1.5);
+  EXPECT_LT(m.GetDoubleAttribute("/regressor", "fit_samples_weights_mae"), 0.03);
+
+  // Inferred on 1 and 2 ranks: the same track, one row per frame, read by eval track.
+  for (int ranks : {1, 2}) {
+    r = RunFacecap(Infer(model, File("track" + std::to_string(ranks) + ".h5")), ranks == 1 ? 0 : ranks);
+    ASSERT_EQ(r.code, 0) << r.output;
+  }
+  const io::H5File t1 = io::H5File::OpenRead(File("track1.h5")), t2 = io::H5File::OpenRead(File("track2.h5"));
+  for (const char* d : {"/track/pose", "/track/translation", "/track/weights"}) {
+    EXPECT_EQ(t1.Read<float>(d, t1.DatasetShape(d)), t2.Read<float>(d, t2.DatasetShape(d))) << d;
+  }
+  EXPECT_EQ(t1.DatasetShape("/track/pose"), (io::Shape{kFrames, 3}));
+  r = RunFacecap("eval track --truth " + File("clip.h5") + " --track " + File("track1.h5") + " --rig " +
+                 File("clip.h5") + " --out " + File("metrics.json"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  // The codes determine the truth: the angles come out closer to it than half the frontal
+  // head's error, and the head, placed on the detected landmarks, projects its landmarks near
+  // the clip's.
+  const auto truth = io::H5File::OpenRead(File("clip.h5")).Read<float>("/frames/pose", {kFrames, 3});
+  double frontal_deg = 0;
+  for (int k = 0; k < kFrames; ++k) {
+    const Eigen::Matrix3f R = rig::EulerToMatrix(Eigen::Vector3f(truth[k * 3], truth[k * 3 + 1], truth[k * 3 + 2]));
+    frontal_deg += std::acos(std::clamp((R.trace() - 1.f) / 2.f, -1.f, 1.f)) * 180.0 / M_PI / kFrames;
+  }
+  const std::string metrics = r.output;
+  auto value = [&](const std::string& key) {
+    const size_t at = metrics.find("\"" + key + "\": ");
+    EXPECT_NE(at, std::string::npos) << key << " in " << metrics;
+    return at == std::string::npos ? 1e9 : std::stod(metrics.substr(at + key.size() + 4));
+  };
+  EXPECT_LT(value("pose_err_deg_mean"), 0.5 * frontal_deg) << metrics;
+  EXPECT_LT(value("landmark_nme"), 0.05) << metrics;
+}
+
+}  // namespace
+}  // namespace facecap::stages
