@@ -666,10 +666,10 @@ void RegisterRegress(CLI::App* app, AppState* state) {
   regress->require_subcommand(1);
   AddStage<RegressTrainOptions>(
       regress, state, "train", "regress.train", "regress train",
-      "Train P (pose), J (jaw controls), W (the other controls) and L (landmarks) on the codes E(D_S(E(I))) of the "
-      "synthetic samples and of the footage's crops, in three phases: P, J, W on the samples' truth; L on the "
-      "samples' landmarks; P, J, W again with L frozen, the real frames' detected landmarks as weak supervision. "
-      "Data-parallel over ranks (gradient allreduce), checkpoints, resume",
+      "Train P (pose), J (jaw controls) and W (the other controls) on the codes E(D_S(E(I))) of the synthetic "
+      "samples against their truth; optionally the paper's phases 2 and 3: L (landmarks) on the samples' landmarks, "
+      "then P, J, W again with L frozen, the footage crops' detected landmarks as weak supervision. Data-parallel "
+      "over ranks (gradient allreduce), checkpoints, resume",
       PathKeys{{"samples", "sample_codes", "frame_codes", "frames", "rig"}, {{"out", OutputKind::kHdf5}}},
       RunRegressTrain);
   AddStage<RegressInferOptions>(
