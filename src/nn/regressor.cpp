@@ -185,6 +185,20 @@ void Regressor::OptimizerStep(Phase phase) {
                   [&](size_t t) { return Impl::Trains(phase, m.owner[t]); });
 }
 
+void Regressor::StartPhase(Phase phase) {
+  Impl& m = *impl_;
+  int64_t offset = 0;
+  for (size_t t = 0; t < m.parameters.size(); ++t) {
+    const int64_t n = m.parameters[t].numel();
+    if (Impl::Trains(phase, m.owner[t])) {
+      std::fill(m.adam_m.begin() + offset, m.adam_m.begin() + offset + n, 0.f);
+      std::fill(m.adam_v.begin() + offset, m.adam_v.begin() + offset + n, 0.f);
+    }
+    offset += n;
+  }
+  m.steps = 0;
+}
+
 std::vector<float> Regressor::State() const {
   const Impl& m = *impl_;
   return OptimizerState(m.parameters, m.adam_m, m.adam_v, m.steps);

@@ -21,7 +21,8 @@
 //
 // Torch stays in regressor.cpp. Training follows facecap's data-parallel pattern: each rank's
 // Backward on its share of a step, the caller sums Gradients() over the ranks, and
-// OptimizerStep applies Adam to the networks the phase trains, bitwise the same on every rank.
+// OptimizerStep applies Adam to the networks the phase trains, bitwise the same on every rank;
+// StartPhase gives each phase a fresh Adam, as separate trainings would have.
 #ifndef FACECAP_NN_REGRESSOR_H_
 #define FACECAP_NN_REGRESSOR_H_
 
@@ -96,6 +97,9 @@ class Regressor {
   float* Gradients();
   // Adam on Gradients() for the networks `phase` trains; the others stay bitwise as they are.
   void OptimizerStep(Phase phase);
+  // A fresh Adam for `phase`: the moments of the networks it trains zeroed and the step count
+  // (of the bias correction) restarted. Called before a phase's first step.
+  void StartPhase(Phase phase);
 
   // Parameters, the Adam moments and the step count (a checkpoint), and back; FileIOError
   // when the state does not fit.

@@ -1,5 +1,6 @@
 #include "nn/regressor.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 
@@ -160,6 +161,25 @@ TEST(Regressor, SharesOfABatchSumToTheWholeBatchsGradient) {
   }
   EXPECT_GT(max_abs, 0.0);
   EXPECT_LT(max_diff, 1e-5 * max_abs + 1e-9);
+}
+
+// A phase starts with a fresh Adam: the moments of the networks it trains zeroed, the step
+// count restarted, the parameters untouched.
+TEST(Regressor, StartPhaseRestartsTheOptimizerOfThePhasesNetworks) {
+  const Task task(5);
+  Regressor r(Small(), task.sizes);
+  Train(&r, Regressor::Phase::kPoseJawExpression, task.All(), 4);
+  const std::vector<float> before = r.State();
+  const size_t n = static_cast<size_t>(r.NumParameters());
+  ASSERT_EQ(before.size(), 3 * n + 1);
+  EXPECT_EQ(before.back(), 4.f);
+  r.StartPhase(Regressor::Phase::kFineTune);
+  const std::vector<float> after = r.State();
+  EXPECT_TRUE(std::equal(before.begin(), before.begin() + n, after.begin()));
+  // L never trained: its moments were zero already; P, J, W's are now too.
+  EXPECT_TRUE(std::any_of(before.begin() + n, before.begin() + 3 * n, [](float x) { return x != 0.f; }));
+  EXPECT_TRUE(std::all_of(after.begin() + n, after.begin() + 3 * n, [](float x) { return x == 0.f; }));
+  EXPECT_EQ(after.back(), 0.f);
 }
 
 TEST(Regressor, StateRoundTripsAndBadInputIsRefused) {

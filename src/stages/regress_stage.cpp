@@ -287,7 +287,11 @@ class RegressTraining : public train::Network {
   }
   float* gradients() override { return model_.Gradients(); }
   int64_t num_gradients() const override { return model_.NumParameters(); }
-  void Apply(int64_t step) override { model_.OptimizerStep(PhaseOf(step).phase); }
+  void Apply(int64_t step) override {
+    const PhaseStep ps = PhaseOf(step);
+    if (ps.step == 0) model_.StartPhase(ps.phase);
+    model_.OptimizerStep(ps.phase);
+  }
   uint64_t ParameterHash() override { return model_.ParameterHash(); }
   void WriteState(io::H5File* f, int64_t) override {
     f->WriteVector<float>("/regressor/state", model_.State());
