@@ -14,7 +14,7 @@ take_build_dir "$@"
 require_facecap
 ranks="${RANKS:-2}"
 cd "${source_dir}"
-for f in samples.h5 deepfake.h5 translated.h5 frames.h5 track.h5 person.h5 rig.h5 clip.h5 metrics.json; do
+for f in deepfake.h5 translated.h5 frames.h5 track.h5 person.h5 clip.h5 metrics.json; do
   [[ -f "out/demo/${f}" ]] || { echo "error: out/demo/${f} missing: run jobs/demo.toml first" >&2; exit 1; }
 done
 mkdir -p out/regress
