@@ -226,18 +226,29 @@ std::vector<FaceBox> FaceAnalyzer::Detect(const Image8& image) {
   return boxes;
 }
 
-Landmarks FaceAnalyzer::FitLandmarks(const Image8& image, const FaceBox& box) const {
-  const cv::Mat gray = ToGray(image);
+Landmarks FaceAnalyzer::FitLandmarks(const Image8& image, const FaceBox& box, int upsample) const {
+  if (upsample < 1 || upsample > 16) {
+    throw InvalidInputError("face analyzer: landmark upsampling must be in [1, 16], got " + std::to_string(upsample));
+  }
+  cv::Mat gray = ToGray(image);
+  if (upsample > 1) {
+    cv::Mat large;
+    cv::resize(gray, large, cv::Size(gray.cols * upsample, gray.rows * upsample), 0, 0, cv::INTER_LINEAR);
+    gray = large;
+  }
+  // Pixel centres at integers in both images: x_large = k (x + 0.5) - 0.5.
+  const float k = static_cast<float>(upsample);
+  const auto up = [k](float x) { return k * (x + 0.5f) - 0.5f; };
   dlib::cv_image<unsigned char> view(gray);
-  const dlib::rectangle rect(static_cast<long>(std::lround(box.x)),
-                             static_cast<long>(std::lround(box.y)),
-                             static_cast<long>(std::lround(box.x + box.width)) - 1,
-                             static_cast<long>(std::lround(box.y + box.height)) - 1);
+  const dlib::rectangle rect(static_cast<long>(std::lround(up(box.x))),
+                             static_cast<long>(std::lround(up(box.y))),
+                             static_cast<long>(std::lround(up(box.x + box.width))) - 1,
+                             static_cast<long>(std::lround(up(box.y + box.height))) - 1);
   const dlib::full_object_detection shape = (*impl_->predictor)(view, rect);
   Landmarks landmarks;
   for (int i = 0; i < kNumLandmarks; ++i) {
-    landmarks(i, 0) = static_cast<float>(shape.part(i).x());
-    landmarks(i, 1) = static_cast<float>(shape.part(i).y());
+    landmarks(i, 0) = (static_cast<float>(shape.part(i).x()) + 0.5f) / k - 0.5f;
+    landmarks(i, 1) = (static_cast<float>(shape.part(i).y()) + 0.5f) / k - 0.5f;
   }
   return landmarks;
 }

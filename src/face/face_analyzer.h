@@ -73,8 +73,10 @@ class FaceAnalyzer {
   // scale, and with the small-face search (equal when there is none).
   double SmallestFace(int width, int height) const;
   double SmallestFaceWithSearch(int width, int height) const;
-  // The 68 landmarks (iBUG order, source pixels) of the face in `box`.
-  Landmarks FitLandmarks(const Image8& image, const FaceBox& box) const;
+  // The 68 landmarks (iBUG order, source pixels) of the face in `box`. dlib places them on
+  // whole pixels; upsample > 1 fits them on a copy enlarged that many times (bilinear), which
+  // gives positions in steps of 1 / upsample source pixels (for small images).
+  Landmarks FitLandmarks(const Image8& image, const FaceBox& box, int upsample = 1) const;
 
   const FaceAnalyzerOptions& options() const;
 

@@ -3,6 +3,7 @@
 #include "face/face_analyzer.h"
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -115,6 +116,44 @@ TEST(FaceAnalyzerTest, FindsTheFaceInEveryFrameOfACameraMoveOverTheRealPhoto) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_EQ(found, static_cast<int>(frames.size()));
   std::printf("detect + landmarks at 640x480: %.1f ms per frame\n", 1000.0 * seconds / frames.size());
+}
+
+TEST(FaceAnalyzerTest, UpsampledFitsPlaceLandmarksBetweenPixelsOfASmallImage) {
+  const Image8 photo = LoadRealPhoto();
+  ASSERT_FALSE(photo.empty());
+  const std::vector<FaceBox> faces = Analyzer().Detect(photo);
+  ASSERT_EQ(faces.size(), 1u);
+  const Landmarks reference = Analyzer().FitLandmarks(photo, faces[0]);
+  // The photo box-filtered to 1/k of its size, the box and the landmarks scaled with it
+  // (pixel centres at integers: x_small = (x + 0.5) / k - 0.5).
+  constexpr int k = 6;
+  Image8 small(photo.width / k, photo.height / k, 3);
+  for (int y = 0; y < small.height; ++y)
+    for (int x = 0; x < small.width; ++x)
+      for (int c = 0; c < 3; ++c) {
+        int sum = 0;
+        for (int v = 0; v < k; ++v)
+          for (int u = 0; u < k; ++u) sum += photo.at(k * x + u, k * y + v, c);
+        small.at(x, y, c) = static_cast<uint8_t>(sum / (k * k));
+      }
+  FaceBox box = faces[0];
+  box.x = (box.x + 0.5f) / k - 0.5f;
+  box.y = (box.y + 0.5f) / k - 0.5f;
+  box.width /= k;
+  box.height /= k;
+  const Landmarks expected = ((reference.array() + 0.5f) / k - 0.5f).matrix();
+  const Landmarks whole = Analyzer().FitLandmarks(small, box);
+  const Landmarks fine = Analyzer().FitLandmarks(small, box, 4);
+  ExpectPlausibleFace(fine, box);
+  int between = 0;
+  for (int i = 0; i < kNumLandmarks; ++i) between += std::abs(fine(i, 0) - std::round(fine(i, 0))) > 0.1f;
+  EXPECT_GT(between, kNumLandmarks / 4);
+  const double whole_error = (whole - expected).rowwise().norm().mean();
+  const double fine_error = (fine - expected).rowwise().norm().mean();
+  EXPECT_LT(fine_error, 1.5) << "small-image pixels";
+  std::printf("landmarks on a 1/%d image: %.2f px from the full-size fit on whole pixels, %.2f px upsampled 4x\n",
+              k, whole_error, fine_error);
+  EXPECT_THROW(Analyzer().FitLandmarks(small, box, 0), InvalidInputError);
 }
 
 TEST(FaceAnalyzerTest, NoFaceInAFlatImage) {
