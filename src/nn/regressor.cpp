@@ -43,6 +43,7 @@ bool RegressorOptions::Check(std::string* why) const {
   if (!(learning_rate > 0.f && learning_rate < 1.f)) { *why = "learning_rate must be in (0, 1)"; return false; }
   if (!(landmark_margin >= 0.f && landmark_margin < 1.f)) { *why = "landmark_margin must be in [0, 1)"; return false; }
   if (!(landmark_weight >= 0.f)) { *why = "landmark_weight must be >= 0"; return false; }
+  if (!(anchor_weight >= 0.f)) { *why = "anchor_weight must be >= 0"; return false; }
   return true;
 }
 
@@ -129,6 +130,8 @@ void Regressor::Backward(Phase phase, const std::vector<RegressorExample>& batch
   gather(z.jaw, &RegressorExample::jaw, &wj, &has_jaw);
   gather(z.expression, &RegressorExample::expression, &wc, &has_expression);
   gather(z.landmarks, &RegressorExample::landmarks, &lm, &has_landmarks);
+  torch::Tensor anchor, has_anchor;
+  gather(z.pose + z.jaw + z.expression, &RegressorExample::anchor, &anchor, &has_anchor);
   has_truth = has_truth * has_jaw * has_expression;
 
   // Per example: mean squared difference, masked.
@@ -155,7 +158,16 @@ void Regressor::Backward(Phase phase, const std::vector<RegressorExample>& batch
     loss_p = mse(P, p, has_truth);
     loss_j = mse(J, wj, has_truth) + mse(m.net[1]->forward(torch::cat({e, p}, 1)), wj, has_truth);
     loss_w = mse(W, wc, has_truth) + mse(m.net[2]->forward(torch::cat({e, p, wj}, 1)), wc, has_truth);
-    if (phase == Phase::kFineTune) loss_l = hinge(m.net[3]->forward(torch::cat({P, J, W}, 1)));
+    if (phase == Phase::kFineTune) {
+      loss_l = hinge(m.net[3]->forward(torch::cat({P, J, W}, 1)));
+      const float a = m.options.anchor_weight;
+      if (a > 0.f) {
+        const std::vector<torch::Tensor> parts = anchor.split_with_sizes({z.pose, z.jaw, z.expression}, 1);
+        loss_p = loss_p + a * mse(P, parts[0], has_anchor);
+        loss_j = loss_j + a * mse(J, parts[1], has_anchor);
+        loss_w = loss_w + a * mse(W, parts[2], has_anchor);
+      }
+    }
   }
   const torch::Tensor total =
       (loss_p + loss_j + loss_w + m.options.landmark_weight * loss_l).sum() * loss_scale;

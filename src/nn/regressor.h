@@ -14,7 +14,10 @@
 //                             + max(0, |L_k(p, w_j, w_c) - m_k| - delta)
 //   kFineTune           P, J, W with L frozen, on synthetic and real examples: L_P, L_J, L_W
 //                       where the truth is known, and L_L* = sum_k max(0, |L_k(P, J, W) - m_k|
-//                       - delta) wherever landmarks are known.
+//                       - delta) wherever landmarks are known; where an example has anchors
+//                       (a real frame's P, J, W outputs before this phase), anchor_weight times
+//                       |P - P_0| + |J - J_0| + |W - W_0|, which keeps the outputs the
+//                       landmarks do not determine where the synthetic truth put them.
 // |.| of a pose or control vector difference is its mean squared value (with a mean absolute
 // difference the sigmoid outputs of the sparse controls saturate at 0 under Adam and never
 // fit); |L_k - m_k| is landmark k's Euclidean distance.
@@ -39,7 +42,8 @@ struct RegressorOptions {
   float leaky_slope = 0.2f;        // slope of the leaky ReLUs below zero
   float learning_rate = 1e-3f;     // Adam step size
   float landmark_margin = 0.01f;   // delta of the landmark loss (landmarks in [0, 1])
-  float landmark_weight = 1.f;     // weight of the landmark loss against L_P + L_J + L_W
+  float landmark_weight = 0.01f;  // weight of the landmark loss against L_P + L_J + L_W
+  float anchor_weight = 10.f;      // weight of phase 3's anchor term
   int seed = 1;                    // parameter initialization seed
 
   template <class V>
@@ -51,6 +55,8 @@ struct RegressorOptions {
     v("landmark_margin", landmark_margin,
       "delta: a landmark within this distance of its target costs nothing (landmarks in [0, 1])");
     v("landmark_weight", landmark_weight, "weight of the landmark loss");
+    v("anchor_weight", anchor_weight,
+      "weight of phase 3's pull of P, J, W on the real frames toward their outputs before phase 3");
     v("net_seed", seed, "parameter initialization seed");
   }
   bool Check(std::string* why) const;
@@ -73,6 +79,7 @@ struct RegressorExample {
   const float* jaw = nullptr;
   const float* expression = nullptr;
   const float* landmarks = nullptr;
+  const float* anchor = nullptr;  // phase 3: P, J, W's earlier outputs [pose, jaw, expression]
 };
 
 class Regressor {

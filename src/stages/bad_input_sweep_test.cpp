@@ -65,7 +65,7 @@ const std::map<std::string, StageInputs>& ValidRuns() {
       {"synth.crops", {{{"clip", "clip.h5"}, {"frames", "frames.h5"}}, "", {}}},
       {"regress.train",
        {{{"samples", "samples.h5"}, {"sample_codes", "codes.h5"}, {"frame_codes", "frame_codes.h5"},
-         {"frames", "frames.h5"}, {"rig", "rig.h5"}},
+         {"frames", "frames.h5"}, {"track", "footage_track.h5"}, {"rig", "rig.h5"}},
         "--pose-steps 1 --landmark-steps 1 --finetune-steps 1 --batch 2 --hidden 8 --threads 1", {}}},
       {"regress.infer",
        {{{"model", "regressor.h5"}, {"codes", "frame_codes.h5"}, {"frames", "frames.h5"}, {"rig", "rig.h5"}},
@@ -186,8 +186,10 @@ class BadInputSweep : public ::testing::Test {
         "synth contract --samples samples.h5 --sample-codes codes.h5 --frame-codes codes.h5 "
         "--out contracted.h5 --sheet none",
         "deepfake infer --model deepfake.h5 --frames frames.h5 --out frame_codes.h5 --no-contours",
+        "track --rig rig.h5 --targets frame_codes.h5 --targets-dataset /frames/translated --frames frames.h5 "
+        "--out footage_track.h5 --levels 1 --epochs 1 --threads 1",
         "regress train --samples samples.h5 --sample-codes codes.h5 --frame-codes frame_codes.h5 "
-        "--frames frames.h5 --rig rig.h5 --out regressor.h5 --pose-steps 1 --landmark-steps 1 "
+        "--frames frames.h5 --track footage_track.h5 --rig rig.h5 --out regressor.h5 --pose-steps 1 --landmark-steps 1 "
         "--finetune-steps 1 --batch 2 --hidden 8 --threads 1",
         "scans synth --out scans.h5 --people 4 --test-people 1 --threads 1",
         "blendshapes train --scans scans.h5 --out bsgen.h5 --estimation-epochs 1 "

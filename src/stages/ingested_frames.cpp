@@ -96,15 +96,16 @@ Eigen::Matrix<float, 68, 2, Eigen::RowMajor> IngestedFrames::SourceLandmarks(int
 
 Eigen::Matrix<float, 68, 2, Eigen::RowMajor> IngestedFrames::CropLandmarks(int64_t frame,
                                                                            int out_size) const {
-  const Eigen::Map<const Eigen::Matrix<float, 2, 3, Eigen::RowMajor>> m(&crop_transform_[6 * frame]);
-  const float k = static_cast<float>(out_size) / static_cast<float>(crop_size_);
   const Eigen::Matrix<float, 68, 2, Eigen::RowMajor> p = SourceLandmarks(frame);
   Eigen::Matrix<float, 68, 2, Eigen::RowMajor> q;
-  for (int l = 0; l < 68; ++l) {
-    const Eigen::Vector2f c = m.leftCols<2>() * p.row(l).transpose() + m.col(2);
-    q.row(l) = (k * (c + Eigen::Vector2f(0.5f, 0.5f))).transpose();
-  }
+  for (int l = 0; l < 68; ++l) q.row(l) = CropPoint(frame, p.row(l).transpose(), out_size).transpose();
   return q;
+}
+
+Eigen::Vector2f IngestedFrames::CropPoint(int64_t frame, const Eigen::Vector2f& source, int out_size) const {
+  const Eigen::Map<const Eigen::Matrix<float, 2, 3, Eigen::RowMajor>> m(&crop_transform_[6 * frame]);
+  const float k = static_cast<float>(out_size) / static_cast<float>(crop_size_);
+  return k * (m.leftCols<2>() * source + m.col(2) + Eigen::Vector2f(0.5f, 0.5f));
 }
 
 namespace {

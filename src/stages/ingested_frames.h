@@ -46,6 +46,9 @@ class IngestedFrames {
   // The detected landmarks in the camera coordinates of the crop shown at out_size pixels
   // (pixel centres at i + 0.5, as render::Camera projects).
   Eigen::Matrix<float, 68, 2, Eigen::RowMajor> CropLandmarks(int64_t frame, int out_size) const;
+  // A point in source pixels (centres at integers) in the crop's coordinates at out_size
+  // pixels, as CropLandmarks places the landmarks.
+  Eigen::Vector2f CropPoint(int64_t frame, const Eigen::Vector2f& source, int out_size) const;
 
  private:
   std::string path_;

@@ -6,7 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <optional>
 
+#include "face/face_analyzer.h"
 #include "io/hdf5.h"
 #include "io/rig_io.h"
 #include "nn/deepfake.h"
@@ -21,11 +23,13 @@
 #include "stages/sample_file.h"
 #include "stages/stage.h"
 #include "stages/track_file.h"
+#include "stages/tracked_rig.h"
 #include "track/soft_segmentation.h"
 #include "track/tracker.h"
 #include "util/bytes.h"
 #include "util/errors.h"
 #include "util/log.h"
+#include "util/parallel_for.h"
 
 namespace facecap::stages {
 namespace {
@@ -46,6 +50,7 @@ struct RegressTrainOptions {
   std::string sample_codes = "samples_codes.h5";  // deepfake infer of the samples
   std::string frame_codes = "";                   // deepfake infer of the footage crops
   std::string frames = "";                        // ingest output of the footage
+  std::string track = "";                         // the tracker's solutions of the frames
   std::string rig = "rig.h5";                     // the samples' rig (its jaw controls)
   std::string out = "regressor.h5";               // trained model
   int pose_steps = 3000;        // phase 1: P, J, W on the samples
@@ -56,6 +61,7 @@ struct RegressTrainOptions {
   double progress_seconds = 10; // interval of the progress lines
   int threads = 0;              // tensor threads per rank (0: the cores divided among ranks)
   int seed = 1;                 // batch order seed
+  std::string landmark_source = "translations";  // L's targets
   nn::RegressorOptions net;
 
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
@@ -76,6 +82,10 @@ struct RegressTrainOptions {
     v("frames", frames,
       "ingest output of the footage: the landmarks it detected on each crop weakly supervise "
       "phase 3 (frames without a face are left out); with frame_codes");
+    v("track", track,
+      "the tracker's track of the same footage crops (track --frames): each solved frame's pose "
+      "and controls join the synthetic truth in phases 1 and 3, as the paper's offline solver "
+      "makes the regressor's ground truth (empty: the samples alone)");
     v("rig", rig, "the samples' rig: its jaw-skinned controls are J's, the others W's");
     v("out", out, "trained model (HDF5): the networks' state, the code normalization, the "
                   "control split");
@@ -91,6 +101,10 @@ struct RegressTrainOptions {
     v("progress_seconds", progress_seconds, "seconds between progress lines");
     v("threads", threads, "tensor threads per rank (0: the cores divided among the node's ranks)");
     v("seed", seed, "batch order seed");
+    v("landmark_source", landmark_source,
+      "L's targets: translations (dlib's landmarks on every example's translation D_S(E(I)) in "
+      "the codes files, samples and real frames alike, as the paper) or projected (the "
+      "samples' projected landmarks and the landmarks ingest detected on the real crops)");
     net.Visit(v);
   }
   bool Check(std::string* why) const {
@@ -100,6 +114,10 @@ struct RegressTrainOptions {
     }
     if (finetune_steps > 0 && (frame_codes.empty() || frames.empty())) {
       *why = "phase 3 (finetune_steps > 0) needs frame_codes and frames";
+      return false;
+    }
+    if (!track.empty() && frames.empty()) {
+      *why = "track needs frame_codes and frames (the codes and crops of the frames it solved)";
       return false;
     }
     if (frame_codes.empty() != frames.empty()) {
@@ -112,6 +130,14 @@ struct RegressTrainOptions {
     if (checkpoint_every < 1) { *why = "checkpoint_every must be >= 1"; return false; }
     if (!(progress_seconds > 0)) { *why = "progress_seconds must be positive"; return false; }
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
+    if (landmark_source != "translations" && landmark_source != "projected") {
+      *why = "landmark_source must be translations or projected, not " + landmark_source;
+      return false;
+    }
+    if (landmark_source == "translations" && (landmark_steps > 0 || finetune_steps > 0) && frames.empty()) {
+      *why = "landmark_source translations places dlib's face box as ingest does: it needs frames";
+      return false;
+    }
     return net.Check(why);
   }
 };
@@ -139,6 +165,78 @@ std::vector<float> ReadCodeRows(const std::string& path, int64_t rows, int64_t* 
   return codes;
 }
 
+// The face box ingest's detector gives in a crop, as fractions of the crop: the median of each
+// edge of /frames/box, carried into the crop, over the frames with a face.
+face::FaceBox TypicalCropBox(const std::string& path, const IngestedFrames& ingested) {
+  const io::H5File f = io::H5File::OpenRead(path);
+  if (!f.Exists("/frames/box")) throw FileIOError(path + ": no /frames/box (an ingest output is expected)");
+  const std::vector<float> boxes = f.Read<float>("/frames/box", f.CheckShape("/frames/box", {ingested.NumFrames(), 5}));
+  std::vector<float> edges[4];
+  for (int64_t k = 0; k < ingested.NumFrames(); ++k) {
+    if (!ingested.Found(k)) continue;
+    const float* b = &boxes[5 * k];
+    if (!(b[2] > 0.f && b[3] > 0.f)) continue;
+    const Eigen::Vector2f lo = ingested.CropPoint(k, Eigen::Vector2f(b[0], b[1]), 1);
+    const Eigen::Vector2f hi = ingested.CropPoint(k, Eigen::Vector2f(b[0] + b[2], b[1] + b[3]), 1);
+    edges[0].push_back(lo.x());
+    edges[1].push_back(lo.y());
+    edges[2].push_back(hi.x());
+    edges[3].push_back(hi.y());
+  }
+  if (edges[0].empty()) throw FileIOError(path + ": no frame with a face box");
+  float median[4];
+  for (int e = 0; e < 4; ++e) {
+    std::nth_element(edges[e].begin(), edges[e].begin() + edges[e].size() / 2, edges[e].end());
+    median[e] = edges[e][edges[e].size() / 2];
+  }
+  face::FaceBox box;
+  box.x = median[0];
+  box.y = median[1];
+  box.width = median[2] - median[0];
+  box.height = median[3] - median[1];
+  return box;
+}
+
+// dlib's landmarks 17-67 on the translations D_S(E(I)) (/frames/translated) of `rows` of a
+// deepfake infer output, fitted in `box` (fractions of the image) on a copy enlarged to about
+// 256 pixels, as fractions of the image: [rows, 51, 2].
+std::vector<float> LandmarksOfTranslations(const std::string& path, const std::vector<int64_t>& rows,
+                                           const face::FaceBox& box, int threads) {
+  const io::H5File f = io::H5File::OpenRead(path);
+  if (!f.Exists("/frames/translated")) {
+    throw FileIOError(path + ": no /frames/translated (an output of deepfake infer is expected)");
+  }
+  const io::Shape shape = f.CheckShape("/frames/translated", {-1, -1, -1, 3});
+  const int height = static_cast<int>(shape[1]), width = static_cast<int>(shape[2]);
+  const int upsample = std::clamp(256 / std::max(1, width), 1, 16);
+  face::FaceBox pixels;
+  pixels.x = box.x * width - 0.5f;
+  pixels.y = box.y * height - 0.5f;
+  pixels.width = box.width * width;
+  pixels.height = box.height * height;
+  std::vector<std::unique_ptr<face::FaceAnalyzer>> analyzers(static_cast<size_t>(std::max(1, threads)));
+  analyzers[0] = std::make_unique<face::FaceAnalyzer>();
+  for (size_t t = 1; t < analyzers.size(); ++t) analyzers[t] = analyzers[0]->Clone();
+  // Read first (the HDF5 library is not thread-safe), fitted on the threads.
+  const std::vector<uint8_t> images = f.Read<uint8_t>("/frames/translated", shape);
+  const size_t image_size = static_cast<size_t>(width) * height * 3;
+  std::vector<float> out(rows.size() * 2 * kLandmarks);
+  const int chunks = static_cast<int>(analyzers.size());
+  ParallelFor(0, chunks, chunks, [&](int t) {
+    Image8 translated(width, height, 3);
+    for (size_t r = static_cast<size_t>(t); r < rows.size(); r += static_cast<size_t>(chunks)) {
+      if (rows[r] < 0 || rows[r] >= shape[0]) throw FileIOError(path + ": no translation of row " + std::to_string(rows[r]));
+      std::copy_n(images.begin() + static_cast<int64_t>(rows[r] * image_size), image_size, translated.data.begin());
+      const face::Landmarks l = analyzers[t]->FitLandmarks(translated, pixels, upsample);
+      for (int k = 0; k < kLandmarks; ++k) {
+        out[(r * kLandmarks + k) * 2] = (l(kFirstLandmark + k, 0) + 0.5f) / width;
+        out[(r * kLandmarks + k) * 2 + 1] = (l(kFirstLandmark + k, 1) + 0.5f) / height;
+      }
+    }
+  });
+  return out;
+}
+
 // Everything training reads, normalized: the codes (per dimension to zero mean, unit
 // deviation over the samples), the pose as angle / kPoseRange + 0.5, controls as they are,
 // landmarks as fractions of the image size.
@@ -146,7 +244,9 @@ struct RegressData {
   nn::RegressorSizes sizes;
   int64_t num_samples = 0, num_frames = 0;
   std::vector<float> codes;        // [samples + frames, code]
-  std::vector<float> pose, jaw, expression;  // per sample
+  std::vector<float> pose, jaw, expression;  // per example (zeros where unknown)
+  std::vector<uint8_t> has_truth;  // per example: pose and controls known
+  int64_t num_truth_frames = 0;    // real frames with the tracker's solution
   std::vector<float> landmarks;    // [samples + frames, 136]
   std::vector<float> code_mean, code_scale;
   std::vector<std::string> shape_names;
@@ -191,33 +291,64 @@ RegressData ReadRegressData(const RegressTrainOptions& o) {
 
   int64_t dim = 0;
   d.codes = ReadCodeRows(o.sample_codes, d.num_samples, &dim);
+  // The samples' projected landmarks, then the real frames' detected ones.
+  for (int64_t i = 0; i < d.num_samples; ++i) {
+    for (int p = kFirstLandmark; p < kSampleLandmarks; ++p) {
+      d.landmarks.push_back(lm[(i * kSampleLandmarks + p) * 2] / static_cast<float>(image[2]));
+      d.landmarks.push_back(lm[(i * kSampleLandmarks + p) * 2 + 1] / static_cast<float>(image[1]));
+    }
+  }
   // The real frames: phase 3's examples, and the fit report's (given without phase 3).
+  std::vector<int64_t> frame_rows;
+  std::optional<IngestedFrames> ingested;
   if (!o.frame_codes.empty() && !o.frames.empty()) {
-    const IngestedFrames ingested = IngestedFrames::Read(o.frames);
+    ingested = IngestedFrames::Read(o.frames);
     int64_t frame_dim = dim;
-    const std::vector<float> frame_codes = ReadCodeRows(o.frame_codes, ingested.NumFrames(), &frame_dim);
-    const int size = ingested.crop_size();
-    for (int64_t k = 0; k < ingested.NumFrames(); ++k) {
-      if (!ingested.Found(k)) continue;
+    const std::vector<float> frame_codes = ReadCodeRows(o.frame_codes, ingested->NumFrames(), &frame_dim);
+    const int size = ingested->crop_size();
+    for (int64_t k = 0; k < ingested->NumFrames(); ++k) {
+      if (!ingested->Found(k)) continue;
       d.codes.insert(d.codes.end(), frame_codes.begin() + k * dim, frame_codes.begin() + (k + 1) * dim);
-      const auto l = ingested.CropLandmarks(k, size);
+      const auto l = ingested->CropLandmarks(k, size);
       for (int p = kFirstLandmark; p < kSampleLandmarks; ++p) {
         d.landmarks.push_back(l(p, 0) / size);
         d.landmarks.push_back(l(p, 1) / size);
       }
-      ++d.num_frames;
+      frame_rows.push_back(k);
     }
+    d.num_frames = static_cast<int64_t>(frame_rows.size());
     if (d.num_frames == 0 && o.finetune_steps > 0) throw FileIOError(o.frames + ": no frame with a face for phase 3");
   }
-  // The samples' landmarks go first.
-  std::vector<float> sample_landmarks;
-  for (int64_t i = 0; i < d.num_samples; ++i) {
-    for (int p = kFirstLandmark; p < kSampleLandmarks; ++p) {
-      sample_landmarks.push_back(lm[(i * kSampleLandmarks + p) * 2] / static_cast<float>(image[2]));
-      sample_landmarks.push_back(lm[(i * kSampleLandmarks + p) * 2 + 1] / static_cast<float>(image[1]));
-    }
+  if (o.landmark_source == "translations" && ingested && (o.landmark_steps > 0 || o.finetune_steps > 0)) {
+    // dlib on every example's translation D_S(E(I)), in the box ingest's detector typically
+    // gives in a crop: L learns, and phase 3 matches, landmarks of one detector on one kind of
+    // image.
+    const face::FaceBox box = TypicalCropBox(o.frames, *ingested);
+    const int threads = ThreadsPerRank(o.threads);
+    std::vector<int64_t> sample_rows(static_cast<size_t>(d.num_samples));
+    for (int64_t i = 0; i < d.num_samples; ++i) sample_rows[i] = i;
+    std::vector<float> detected = LandmarksOfTranslations(o.sample_codes, sample_rows, box, threads);
+    const std::vector<float> detected_frames = LandmarksOfTranslations(o.frame_codes, frame_rows, box, threads);
+    detected.insert(detected.end(), detected_frames.begin(), detected_frames.end());
+    // How far dlib on the translations lands from the projected (samples) and the ingest
+    // (real crops) landmarks: the detector's and the translation's bias that L absorbs.
+    const auto mean_distance = [&](int64_t first, int64_t count) {
+      double sum = 0;
+      for (int64_t i = first; i < first + count; ++i) {
+        for (int k = 0; k < kLandmarks; ++k) {
+          const size_t at = static_cast<size_t>(i) * 2 * kLandmarks + 2 * k;
+          sum += std::hypot(detected[at] - d.landmarks[at], detected[at + 1] - d.landmarks[at + 1]);
+        }
+      }
+      return count > 0 ? sum / (static_cast<double>(count) * kLandmarks) : 0.0;
+    };
+    FC_INFO("regress train: dlib's landmarks on the translations are {:.4f} from the samples' projected ones and "
+            "{:.4f} from those ingest detected on the real crops (fractions of the crop; box x {:.3f} y {:.3f} "
+            "size {:.3f} x {:.3f})",
+            mean_distance(0, d.num_samples), mean_distance(d.num_samples, d.num_frames), box.x, box.y, box.width,
+            box.height);
+    d.landmarks = std::move(detected);
   }
-  d.landmarks.insert(d.landmarks.begin(), sample_landmarks.begin(), sample_landmarks.end());
 
   d.code_mean.assign(dim, 0.f);
   d.code_scale.assign(dim, 0.f);
@@ -232,10 +363,38 @@ RegressData ReadRegressData(const RegressTrainOptions& o) {
   for (int64_t i = 0; i < d.num_samples + d.num_frames; ++i) {
     for (int64_t j = 0; j < dim; ++j) d.codes[i * dim + j] = (d.codes[i * dim + j] - d.code_mean[j]) * d.code_scale[j];
   }
-  for (float a : pose) d.pose.push_back(static_cast<float>(a / kPoseRange + 0.5));
-  for (int64_t i = 0; i < d.num_samples; ++i) {
-    for (int j : d.jaw_shapes) d.jaw.push_back(std::clamp(weights[i * S + j], 0.f, 1.f));
-    for (int j : d.expression_shapes) d.expression.push_back(std::clamp(weights[i * S + j], 0.f, 1.f));
+  const auto add_truth = [&](const float* angles, const float* w) {
+    for (int k = 0; k < kPose; ++k) d.pose.push_back(static_cast<float>(angles[k] / kPoseRange + 0.5));
+    for (int j : d.jaw_shapes) d.jaw.push_back(std::clamp(w[j], 0.f, 1.f));
+    for (int j : d.expression_shapes) d.expression.push_back(std::clamp(w[j], 0.f, 1.f));
+  };
+  for (int64_t i = 0; i < d.num_samples; ++i) add_truth(&pose[i * kPose], &weights[i * S]);
+  d.has_truth.assign(static_cast<size_t>(d.num_samples), 1);
+  // The real frames: the tracker's solution, its pose seen in the crop's camera, where it solved.
+  std::optional<TrackedRig> tracked;
+  if (!o.track.empty()) {
+    tracked.emplace(o.track, rig);
+    if (!tracked->InSourceCamera() || tracked->NumFrames() != ingested->NumFrames()) {
+      throw FileIOError(o.track + ": a track of the crops of " + o.frames + " (" +
+                        std::to_string(ingested->NumFrames()) + " frames, as track --frames writes) is expected; it has " +
+                        std::to_string(tracked->NumFrames()) + " frames" +
+                        (tracked->InSourceCamera() ? "" : " in another camera"));
+    }
+  }
+  for (int64_t k : frame_rows) {
+    const bool known = tracked && tracked->Solved(k);
+    float angles[kPose] = {0.f, 0.f, 0.f};
+    Eigen::VectorXf w = Eigen::VectorXf::Zero(S);
+    if (known) {
+      const rig::RigidPose p = PoseInCrop(tracked->Pose(k), ingested->CropCamera(k, ingested->crop_size()));
+      angles[0] = p.pitch;
+      angles[1] = p.yaw;
+      angles[2] = p.roll;
+      w = tracked->Weights(k);
+    }
+    add_truth(angles, w.data());
+    d.has_truth.push_back(known ? 1 : 0);
+    d.num_truth_frames += known ? 1 : 0;
   }
   d.sizes.code = static_cast<int>(dim);
   d.sizes.pose = kPose;
@@ -265,20 +424,28 @@ class RegressTraining : public train::Network {
   int NumLosses() const override { return nn::Regressor::kNumLosses; }
   void Backward(int64_t step, double* losses) override {
     const PhaseStep ps = PhaseOf(step);
-    const int examples = static_cast<int>(d_.num_samples + (ps.phase == nn::Regressor::Phase::kFineTune ? d_.num_frames : 0));
+    // Phase 1 trains on the examples with truth (the samples, then the tracked frames), phase 2
+    // on the samples, phase 3 on every example.
+    const int examples = static_cast<int>(
+        ps.phase == nn::Regressor::Phase::kFineTune            ? d_.num_samples + d_.num_frames
+        : ps.phase == nn::Regressor::Phase::kPoseJawExpression && d_.num_truth_frames > 0 ? d_.num_samples + d_.num_frames
+                                                                                      : d_.num_samples);
     const int per_epoch = (examples + o_.batch - 1) / o_.batch;
     int size = 0;
     std::vector<nn::RegressorExample> mine;
+    if (ps.phase == nn::Regressor::Phase::kFineTune && o_.net.anchor_weight > 0.f && anchors_.empty()) Anchor();
     const uint64_t seed = static_cast<uint64_t>(o_.seed) * 4 + static_cast<uint64_t>(ps.phase);
     for (int e : train::RankShareOfBatch(examples, o_.batch, seed, static_cast<uint64_t>(ps.step / per_epoch),
                                          static_cast<int>(ps.step % per_epoch), comm_.rank(), comm_.size(), &size)) {
       nn::RegressorExample x;
       x.code = &d_.codes[static_cast<size_t>(e) * d_.sizes.code];
       x.landmarks = &d_.landmarks[static_cast<size_t>(e) * d_.sizes.landmarks];
-      if (e < d_.num_samples) {
+      if (d_.has_truth[e]) {
         x.pose = &d_.pose[static_cast<size_t>(e) * d_.sizes.pose];
         x.jaw = &d_.jaw[static_cast<size_t>(e) * d_.sizes.jaw];
         x.expression = &d_.expression[static_cast<size_t>(e) * d_.sizes.expression];
+      } else if (!anchors_.empty()) {
+        x.anchor = &anchors_[static_cast<size_t>(e - d_.num_samples) * AnchorSize()];
       }
       mine.push_back(x);
     }
@@ -297,12 +464,19 @@ class RegressTraining : public train::Network {
     f->WriteVector<float>("/regressor/state", model_.State());
     f->SetAttribute("/regressor/state", "meaning",
                     std::string("the networks' parameters, Adam's moments and step count"));
+    if (!anchors_.empty()) {
+      f->WriteVector<float>("/regressor/anchors", anchors_);
+      f->SetAttribute("/regressor/anchors", "meaning",
+                      std::string("phase 3's anchors: each real frame's P, J, W outputs before phase 3"));
+    }
   }
   void ReadState(const io::H5File& f) override {
     state_ = f.ReadVector<float>("/regressor/state", 3 * model_.NumParameters() + 1);
+    if (f.Exists("/regressor/anchors")) anchors_ = f.ReadVector<float>("/regressor/anchors", d_.num_frames * AnchorSize());
   }
   void BroadcastState(const dist::Comm& comm, bool) override {
     comm.Broadcast(&state_);
+    comm.Broadcast(&anchors_);
     if (!state_.empty()) model_.SetState(state_);
   }
   void WriteModel(io::H5File* f, int64_t steps_done) override {
@@ -373,6 +547,24 @@ class RegressTraining : public train::Network {
             pose_deg, weights_mae, lm_samples, d_.num_frames > 0 ? fmt::format("{:.4f}", lm_frames) : "-");
   }
 
+  int64_t AnchorSize() const { return d_.sizes.pose + d_.sizes.jaw + d_.sizes.expression; }
+  // Phase 3's anchors: the real frames' P, J, W outputs as phase 3 starts (the same on every
+  // rank, kept in the checkpoints for a resumed phase 3).
+  void Anchor() {
+    const nn::RegressorSizes& z = d_.sizes;
+    const int64_t n = d_.num_frames;
+    std::vector<float> pose(n * z.pose), jaw(n * z.jaw), expression(n * z.expression);
+    model_.Predict(&d_.codes[static_cast<size_t>(d_.num_samples) * z.code], static_cast<int>(n), pose.data(),
+                   jaw.data(), expression.data(), nullptr);
+    anchors_.clear();
+    for (int64_t i = 0; i < n; ++i) {
+      anchors_.insert(anchors_.end(), pose.begin() + i * z.pose, pose.begin() + (i + 1) * z.pose);
+      anchors_.insert(anchors_.end(), jaw.begin() + i * z.jaw, jaw.begin() + (i + 1) * z.jaw);
+      anchors_.insert(anchors_.end(), expression.begin() + i * z.expression,
+                      expression.begin() + (i + 1) * z.expression);
+    }
+  }
+
   PhaseStep PhaseOf(int64_t step) const {
     if (step < o_.pose_steps) return {nn::Regressor::Phase::kPoseJawExpression, step};
     step -= o_.pose_steps;
@@ -385,6 +577,7 @@ class RegressTraining : public train::Network {
   const RegressData& d_;
   nn::Regressor model_;
   std::vector<float> state_;
+  std::vector<float> anchors_;  // [frames, pose + jaw + expression] once phase 3 starts
 };
 
 void RunRegressTrain(const StageFlags& flags, AppState* state) {
@@ -674,7 +867,7 @@ void RegisterRegress(CLI::App* app, AppState* state) {
       "samples against their truth; optionally the paper's phases 2 and 3: L (landmarks) on the samples' landmarks, "
       "then P, J, W again with L frozen, the footage crops' detected landmarks as weak supervision. Data-parallel "
       "over ranks (gradient allreduce), checkpoints, resume",
-      PathKeys{{"samples", "sample_codes", "frame_codes", "frames", "rig"}, {{"out", OutputKind::kHdf5}}},
+      PathKeys{{"samples", "sample_codes", "frame_codes", "frames", "track", "rig"}, {{"out", OutputKind::kHdf5}}},
       RunRegressTrain);
   AddStage<RegressInferOptions>(
       regress, state, "infer", "regress.infer", "regress infer",

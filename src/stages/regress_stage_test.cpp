@@ -1,10 +1,11 @@
 // regress train and regress infer end to end on a synthetic clip filmed, ingested and cropped
 // like footage, with codes that determine the truth (a fixed linear map of each sample's and
-// frame's pose and controls, so that what the networks can learn is known): the three phases
-// keep one weight set on 2 and 3 ranks and a stopped run continues to the straight run's
-// weights; phase 1 fits its noiseless training set; infer writes a track that eval track
-// reads, the same on 1 and 2 ranks, its angles closer to the clip's truth than half the
-// frontal head's error.
+// frame's pose and controls, so that what the networks can learn is known), and the sample
+// renders and the crops standing for their translations: the three phases keep one weight
+// set on 2 and 3 ranks and a run stopped in phase 3 continues to the straight run's weights;
+// phase 1 fits its noiseless training set; infer writes a track that eval track reads, the
+// same on 1 and 2 ranks, its angles closer to the clip's truth than half the frontal head's
+// error; a tracker's solutions given with track are what the model learns on those frames.
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -48,7 +49,7 @@ class Regress : public ::testing::Test {
     const auto weights = samples.Read<float>("/samples/weights", {kSamples, S});
     std::vector<float> codes;
     for (int i = 0; i < kSamples; ++i) AddCode(&pose[i * 3], &weights[i * S], S, &codes);
-    WriteCodes(File("sample_codes.h5"), codes, kSamples);
+    WriteCodes(File("sample_codes.h5"), codes, kSamples, File("samples.h5"), "/samples/segmentation");
     // The frames' codes from the clip's truth, the pose seen by each crop's camera.
     const IngestedFrames ingested = IngestedFrames::Read(File("frames.h5"));
     ASSERT_EQ(ingested.NumFrames(), kFrames);
@@ -68,7 +69,7 @@ class Regress : public ::testing::Test {
       const float angles[3] = {crop.pitch, crop.yaw, crop.roll};
       AddCode(angles, &clip_weights[k * S], S, &codes);
     }
-    WriteCodes(File("frame_codes.h5"), codes, kFrames);
+    WriteCodes(File("frame_codes.h5"), codes, kFrames, File("frames.h5"), "/frames/crop");
   }
   static void TearDownTestSuite() { delete dir_; }
   static std::string File(const std::string& name) { return dir_->File(name); }
@@ -82,9 +83,14 @@ class Regress : public ::testing::Test {
       codes->push_back(static_cast<float>(sum));
     }
   }
-  static void WriteCodes(const std::string& path, const std::vector<float>& codes, int rows) {
+  // A codes file as deepfake infer writes it; `images` of `from` stand for the translations.
+  static void WriteCodes(const std::string& path, const std::vector<float>& codes, int rows, const std::string& from,
+                         const std::string& images) {
+    const io::H5File source = io::H5File::OpenRead(from);
+    const io::Shape shape = source.DatasetShape(images);
     io::H5File f = io::H5File::CreateAtomic(path);
     f.Write<float>("/frames/latent_of_translation", {rows, kDim}, codes.data());
+    f.Write<uint8_t>("/frames/translated", shape, source.Read<uint8_t>(images, shape).data());
     f.Commit();
   }
   static std::string Train(const std::string& out, const std::string& steps) {
@@ -103,7 +109,8 @@ testing::TempDir* Regress::dir_ = nullptr;
 std::vector<float> Regress::map_;
 
 TEST_F(Regress, ThePhasesKeepOneWeightSetOnEveryRankAndResume) {
-  const std::string steps = "--pose-steps 30 --landmark-steps 20 --finetune-steps 30";
+  const std::string steps =
+      "--pose-steps 30 --landmark-steps 20 --finetune-steps 30 --landmark-weight 0.01 --anchor-weight 10";
   for (int ranks : {2, 3}) {
     auto r = RunFacecap(Train(File("ranks" + std::to_string(ranks) + ".h5"), steps), ranks);
     ASSERT_EQ(r.code, 0) << r.output;
@@ -111,10 +118,10 @@ TEST_F(Regress, ThePhasesKeepOneWeightSetOnEveryRankAndResume) {
         << r.output;
     EXPECT_NE(r.output.find("phase 3"), std::string::npos) << r.output;
   }
-  // Stopped in phase 2, continued: the straight run's weights.
+  // Stopped in phase 3 (its anchors in the checkpoint), continued: the straight run's weights.
   const std::string straight = File("straight.h5"), stopped = File("stopped.h5");
   ASSERT_EQ(RunFacecap(Train(straight, steps)).code, 0);
-  auto stop = RunFacecap(Train(stopped, steps), 0, "FACECAP_FAULT_AFTER_STEPS=40");
+  auto stop = RunFacecap(Train(stopped, steps), 0, "FACECAP_FAULT_AFTER_STEPS=60");
   EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
   EXPECT_FALSE(std::filesystem::exists(stopped));
   auto rerun = RunFacecap(Train(stopped, steps));
@@ -164,6 +171,34 @@ TEST_F(Regress, PhaseOneFitsNoiselessCodesAndInferTracksTheClip) {
   };
   EXPECT_LT(value("pose_err_deg_mean"), 0.5 * frontal_deg) << metrics;
   EXPECT_LT(value("landmark_nme"), 0.05) << metrics;
+}
+
+TEST_F(Regress, TheTrackersSolutionsAreLearnedOnTheirFrames) {
+  // A track of the frames (infer's layout) whose controls are all 0.5, unlike the clip's truth
+  // that the codes encode.
+  const std::string phase1 = File("short.h5"), track = File("half.h5");
+  auto r = RunFacecap(Train(phase1, "--pose-steps 20 --landmark-steps 0 --finetune-steps 0"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  ASSERT_EQ(RunFacecap(Infer(phase1, track)).code, 0);
+  {
+    io::H5File t = io::H5File::OpenReadWrite(track);
+    const io::Shape shape = t.DatasetShape("/track/weights");
+    const std::vector<float> half(static_cast<size_t>(shape[0] * shape[1]), 0.5f);
+    t.Write<float>("/track/weights", shape, half.data());
+  }
+  const std::string model = File("tracked.h5"), out = File("tracked_track.h5");
+  r = RunFacecap(Train(model, "--pose-steps 1500 --landmark-steps 0 --finetune-steps 0 --track " + track));
+  ASSERT_EQ(r.code, 0) << r.output;
+  ASSERT_EQ(RunFacecap(Infer(model, out)).code, 0);
+  const auto truth = io::H5File::OpenRead(File("clip.h5")).Read<float>("/frames/weights", {});
+  const auto predicted = io::H5File::OpenRead(out).Read<float>("/track/weights", {});
+  ASSERT_EQ(truth.size(), predicted.size());
+  double to_track = 0, truth_to_track = 0;
+  for (size_t k = 0; k < truth.size(); ++k) {
+    to_track += std::abs(predicted[k] - 0.5) / truth.size();
+    truth_to_track += std::abs(truth[k] - 0.5) / truth.size();
+  }
+  EXPECT_LT(to_track, 0.5 * truth_to_track) << to_track << " " << truth_to_track;
 }
 
 }  // namespace
