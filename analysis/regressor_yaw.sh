@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
-# The personalized regressor (paper 000 Sec. 9) against the clip's truth on the demo: per
-# frame the yaw of the truth, of the stage-1 regressor (synthetic truth alone), of the final
-# regressor (stage 3: the real frames' landmarks as weak supervision), of the landmarks-only
-# fit and of the tracker (paper Fig. 24, as a plot and a table), and each one's pose error,
-# weight MAE, landmark NME and seconds per frame, beside the neutral face.
+# The personalized regressor (paper 000 Sec. 9) against the truth, on the demo clip (whose
+# frames the tracker's solutions and phase 3 trained on) and on a held-out clip of the same
+# person that no training saw: per frame the yaw of the truth, of the regressor trained on the
+# samples alone (the paper's stage 1), of the regressor trained on the samples and the
+# tracker's solutions, of that regressor after phases 2-3 (the real frames' landmarks as weak
+# supervision), of the landmarks-only fit and of the tracker (paper Fig. 24, as a plot and
+# tables), and each one's pose error, weight MAE, landmark NME and seconds per frame, beside
+# the neutral face.
 #
 #   analysis/regressor_yaw.sh [BUILD_DIR]
 #
-# Runs jobs/regress.toml (about 10 minutes on 2 cores; run jobs/demo.toml first) and writes
+# Runs jobs/regress.toml (about 20 minutes on 2 cores; run jobs/demo.toml first) and writes
 # out/regress/yaw.png. Environment: RANKS (2), FACECAP_BUILD_DIR (build/).
 source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
 take_build_dir "$@"
@@ -29,44 +32,52 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-truth = np.degrees(h5py.File("out/demo/clip.h5", "r")["/frames/pose"][:, 1])
-found = h5py.File("out/demo/frames.h5", "r")["/frames/found"][:].astype(bool)
-rows = [("landmarks-only fit", "out/regress/track_landmarks.h5", "out/regress/metrics_landmarks.json"),
-        ("regressor, stage 1", "out/regress/track.h5", "out/regress/metrics.json"),
-        ("regressor, stage 3", "out/regress/track_stage3.h5", "out/regress/metrics_stage3.json"),
-        ("tracker (the demo's)", "out/demo/track.h5", "out/demo/metrics.json")]
-extreme = found & (np.abs(truth) > 40)
-print(f"{found.sum()} frames with a face ({(~found).sum()} without, not scored); "
-      f"{extreme.sum()} of them with |yaw| > 40 deg")
-print()
-print("| method | yaw err, all (deg) | yaw err, abs(yaw) > 40 (deg) | pose err (deg) | weight MAE "
-      "| active MAE | landmark NME | s / frame |")
-print("| --- | --- | --- | --- | --- | --- | --- | --- |")
-first = json.load(open(rows[0][2]))
-print(f"| neutral face | | | | {first['weights_mae_neutral']:.4f} | "
-      f"{first['active_weights_mae_neutral']:.3f} | | |")
-yaws = {}
-for name, track, metrics in rows:
-    yaw = np.degrees(h5py.File(track, "r")["/track/pose"][:, 1])
-    yaws[name] = yaw
-    m = json.load(open(metrics))
-    err = np.abs(yaw - truth)
-    print(f"| {name} | {err[found].mean():.2f} | {err[extreme].mean():.2f} | "
-          f"{m['pose_err_deg_mean']:.2f} | {m['weights_mae']:.4f} | {m['active_weights_mae']:.3f} | "
-          f"{100 * m['landmark_nme']:.2f}% | {m['sec_per_frame']:.4f} |")
-
-fig, ax = plt.subplots(figsize=(10, 4))
-frames = np.arange(len(truth))
-ax.plot(frames, truth, "k-", lw=2, label="truth")
-for (name, _, _), color in zip(rows, ["tab:blue", "tab:green", "tab:red", "tab:gray"]):
-    yaw = np.where(found, yaws[name], np.nan)
-    ax.plot(frames, yaw, "-", color=color, lw=1, label=name)
-ax.set_xlabel("frame")
-ax.set_ylabel("yaw (deg)")
-ax.set_title("Yaw per frame on the demo clip (frames without a face left out)")
-ax.legend(fontsize=8)
+clips = [("the demo clip", "out/demo/clip.h5", "out/demo/frames.h5", [
+            ("landmarks-only fit", "out/regress/track_landmarks.h5", "out/regress/metrics_landmarks.json"),
+            ("regressor, samples alone (stage 1)", "out/regress/track_samples.h5", "out/regress/metrics_samples.json"),
+            ("regressor, samples + tracker", "out/regress/track.h5", "out/regress/metrics.json"),
+            ("regressor, + phases 2-3", "out/regress/track_stage3.h5", "out/regress/metrics_stage3.json"),
+            ("tracker", "out/demo/track.h5", "out/demo/metrics.json")]),
+         ("the held-out clip", "out/regress/holdout.h5", "out/regress/holdout_frames.h5", [
+            ("landmarks-only fit", "out/regress/holdout_track_landmarks.h5",
+             "out/regress/holdout_metrics_landmarks.json"),
+            ("regressor, samples alone (stage 1)", "out/regress/holdout_track_samples.h5",
+             "out/regress/holdout_metrics_samples.json"),
+            ("regressor, samples + tracker", "out/regress/holdout_track.h5", "out/regress/holdout_metrics.json"),
+            ("regressor, + phases 2-3", "out/regress/holdout_track_stage3.h5",
+             "out/regress/holdout_metrics_stage3.json"),
+            ("tracker", "out/regress/holdout_track_tracker.h5", "out/regress/holdout_metrics_tracker.json")])]
+colors = ["tab:blue", "tab:green", "tab:orange", "tab:red", "tab:gray"]
+fig, axes = plt.subplots(2, 1, figsize=(10, 7.5))
+for (title, clip, frames_file, rows), ax in zip(clips, axes):
+    truth = np.degrees(h5py.File(clip, "r")["/frames/pose"][:, 1])
+    found = h5py.File(frames_file, "r")["/frames/found"][:].astype(bool)
+    extreme = found & (np.abs(truth) > 40)
+    print(f"## {title}: {found.sum()} frames with a face ({(~found).sum()} without, not scored); "
+          f"{extreme.sum()} of them with |yaw| > 40 deg")
+    print()
+    print("| method | yaw err, all (deg) | yaw err, abs(yaw) > 40 (deg) | pose err (deg) | weight MAE "
+          "| active MAE | landmark NME | s / frame |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    first = json.load(open(rows[0][2]))
+    print(f"| neutral face | | | | {first['weights_mae_neutral']:.4f} | "
+          f"{first['active_weights_mae_neutral']:.3f} | | |")
+    frames = np.arange(len(truth))
+    ax.plot(frames, truth, "k-", lw=2, label="truth")
+    for (name, track, metrics), color in zip(rows, colors):
+        yaw = np.degrees(h5py.File(track, "r")["/track/pose"][:, 1])
+        m = json.load(open(metrics))
+        err = np.abs(yaw - truth)
+        print(f"| {name} | {err[found].mean():.2f} | {err[extreme].mean():.2f} | "
+              f"{m['pose_err_deg_mean']:.2f} | {m['weights_mae']:.4f} | {m['active_weights_mae']:.3f} | "
+              f"{100 * m['landmark_nme']:.2f}% | {m['sec_per_frame']:.4f} |")
+        ax.plot(frames, np.where(found, yaw, np.nan), "-", color=color, lw=1, label=name)
+    print()
+    ax.set_xlabel("frame")
+    ax.set_ylabel("yaw (deg)")
+    ax.set_title(f"Yaw per frame on {title} (frames without a face left out)")
+    ax.legend(fontsize=7)
 fig.tight_layout()
 fig.savefig("out/regress/yaw.png", dpi=120)
-print()
 print("plot: out/regress/yaw.png")
 EOF
