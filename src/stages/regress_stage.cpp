@@ -175,7 +175,7 @@ face::FaceBox TypicalCropBox(const std::string& path, const IngestedFrames& inge
   for (int64_t k = 0; k < ingested.NumFrames(); ++k) {
     if (!ingested.Found(k)) continue;
     const float* b = &boxes[5 * k];
-    if (!(b[2] > 0.f && b[3] > 0.f)) continue;
+    if (!std::all_of(b, b + 4, [](float x) { return std::isfinite(x); }) || !(b[2] > 0.f && b[3] > 0.f)) continue;
     const Eigen::Vector2f lo = ingested.CropPoint(k, Eigen::Vector2f(b[0], b[1]), 1);
     const Eigen::Vector2f hi = ingested.CropPoint(k, Eigen::Vector2f(b[0] + b[2], b[1] + b[3]), 1);
     edges[0].push_back(lo.x());
