@@ -2,11 +2,11 @@
 # The personalized regressor (paper 000 Sec. 9) against the truth, on the demo clip (whose
 # frames the tracker's solutions and phase 3 trained on) and on a held-out clip of the same
 # person that no training saw: per frame the yaw of the truth, of the regressor trained on the
-# samples alone (the paper's stage 1), of the regressor trained on the samples and the
-# tracker's solutions, of that regressor after phases 2-3 (the real frames' landmarks as weak
-# supervision), of the landmarks-only fit and of the tracker (paper Fig. 24, as a plot and
-# tables), and each one's pose error, weight MAE, landmark NME and seconds per frame, beside
-# the neutral face.
+# random samples alone (the paper's stage 1), of the regressor trained on the contracted and
+# expanded samples and the tracker's solutions, of that regressor after phases 2-3 (the real
+# frames' landmarks as weak supervision), of the landmarks-only fit and of the tracker (paper
+# Fig. 24, as a plot and tables), and each one's pose error, weight MAE, landmark NME and
+# seconds per frame, beside the neutral face.
 #
 #   analysis/regressor_yaw.sh [BUILD_DIR]
 #
@@ -34,16 +34,16 @@ import matplotlib.pyplot as plt
 
 clips = [("the demo clip", "out/demo/clip.h5", "out/demo/frames.h5", [
             ("landmarks-only fit", "out/regress/track_landmarks.h5", "out/regress/metrics_landmarks.json"),
-            ("regressor, samples alone (stage 1)", "out/regress/track_samples.h5", "out/regress/metrics_samples.json"),
-            ("regressor, samples + tracker", "out/regress/track.h5", "out/regress/metrics.json"),
+            ("regressor, random samples alone (stage 1)", "out/regress/track_samples.h5", "out/regress/metrics_samples.json"),
+            ("regressor, expanded samples + tracker", "out/regress/track.h5", "out/regress/metrics.json"),
             ("regressor, + phases 2-3", "out/regress/track_stage3.h5", "out/regress/metrics_stage3.json"),
             ("tracker", "out/demo/track.h5", "out/demo/metrics.json")]),
          ("the held-out clip", "out/regress/holdout.h5", "out/regress/holdout_frames.h5", [
             ("landmarks-only fit", "out/regress/holdout_track_landmarks.h5",
              "out/regress/holdout_metrics_landmarks.json"),
-            ("regressor, samples alone (stage 1)", "out/regress/holdout_track_samples.h5",
+            ("regressor, random samples alone (stage 1)", "out/regress/holdout_track_samples.h5",
              "out/regress/holdout_metrics_samples.json"),
-            ("regressor, samples + tracker", "out/regress/holdout_track.h5", "out/regress/holdout_metrics.json"),
+            ("regressor, expanded samples + tracker", "out/regress/holdout_track.h5", "out/regress/holdout_metrics.json"),
             ("regressor, + phases 2-3", "out/regress/holdout_track_stage3.h5",
              "out/regress/holdout_metrics_stage3.json"),
             ("tracker", "out/regress/holdout_track_tracker.h5", "out/regress/holdout_metrics_tracker.json")])]
