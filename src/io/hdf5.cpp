@@ -256,6 +256,15 @@ void H5File::Remove(const std::string& raw) {
   if (Exists(name)) H5Ldelete(id_, name.c_str(), H5P_DEFAULT);
 }
 
+void H5File::CopyFrom(const H5File& source, const std::string& raw) {
+  const std::string name = Normalize(raw);
+  if (!source.Exists(name)) throw FileIOError(source.path() + ": has no " + name + " to copy");
+  CreateGroups(name);
+  if (H5Ocopy(source.id_, name.c_str(), id_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0) {
+    throw FileIOError(path_ + ": cannot copy " + name + " from " + source.path());
+  }
+}
+
 Shape H5File::CheckShape(const std::string& raw, const Shape& expected) const {
   const std::string name = Normalize(raw);
   Shape actual = DatasetShape(name);

@@ -74,6 +74,9 @@ class H5File {
   void CreateGroups(const std::string& name);  // creates /a and /a/b for name /a/b/c
   Shape DatasetShape(const std::string& name) const;
   void Remove(const std::string& name);
+  // Copies dataset or group `name` (recursively, with attributes) from `source` to the same
+  // name here, creating missing parent groups; FileIOError when the copy fails.
+  void CopyFrom(const H5File& source, const std::string& name);
 
   // --- whole datasets ---
   // Writes (replacing) a dataset of `shape` from `data` (row-major). Datasets above 1 MiB are

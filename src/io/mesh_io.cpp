@@ -27,6 +27,7 @@
 #include "io/image_io.h"
 #include "rig/evaluate.h"
 #include "util/errors.h"
+#include "util/json.h"
 
 namespace facecap::io {
 
@@ -860,17 +861,16 @@ GltfMeshAccessors AddMeshData(const rig::Rig& rig, const rig::Vertices& position
   return a;
 }
 
-// The JSON from "asset" through "meshes": one node, one mesh, its morph targets by name.
-std::string GltfMeshJson(const rig::Rig& rig, const GltfMeshAccessors& a) {
+// One entry of "meshes": its primitive (with `material`, -1: none) and its morph targets,
+// named in extras.targetNames.
+std::string GltfMeshObject(const std::string& name, const GltfMeshAccessors& a, int material,
+                           const std::vector<std::string>& target_names) {
   const int num_shapes = static_cast<int>(a.targets.size());
-  std::string json = "{\"asset\":{\"version\":\"2.0\",\"generator\":\"facecap\"},";
-  json += "\"scene\":0,\"scenes\":[{\"nodes\":[0]}],";
-  json += "\"nodes\":[{\"name\":\"face\",\"mesh\":0}],";
-  json += "\"meshes\":[{\"name\":\"face\",\"primitives\":[{\"attributes\":{\"POSITION\":" +
-          std::to_string(a.position);
+  std::string json = "{\"name\":" + JsonString(name) + ",\"primitives\":[{\"attributes\":{\"POSITION\":" +
+                     std::to_string(a.position);
   if (a.uv >= 0) json += ",\"TEXCOORD_0\":" + std::to_string(a.uv);
   json += "},\"indices\":" + std::to_string(a.index) + ",\"mode\":4";
-  if (a.image_view >= 0) json += ",\"material\":0";
+  if (material >= 0) json += ",\"material\":" + std::to_string(material);
   if (num_shapes > 0) {
     json += ",\"targets\":[";
     for (int s = 0; s < num_shapes; ++s) {
@@ -882,28 +882,70 @@ std::string GltfMeshJson(const rig::Rig& rig, const GltfMeshAccessors& a) {
   if (num_shapes > 0) {
     json += ",\"weights\":" + GltfBufferBuilder::FloatArray(std::vector<float>(num_shapes, 0.f));
     json += ",\"extras\":{\"targetNames\":[";
-    for (int s = 0; s < num_shapes; ++s) json += (s ? "," : "") + JsonString(rig.shapes[s].name);
+    for (int s = 0; s < num_shapes; ++s) json += (s ? "," : "") + JsonString(target_names[s]);
     json += "]}";
   }
-  json += "}]";
-  return json;
+  return json + "}";
 }
 
-// ",materials" ... ",images": one material whose base colour is the embedded PNG, sampled
-// with mipmaps and clamped at the UV square's edges; not metallic, a skin-like roughness.
-std::string GltfMaterialJson(int image_view) {
-  return ",\"materials\":[{\"name\":\"skin\",\"pbrMetallicRoughness\":{\"baseColorTexture\":"
-         "{\"index\":0},\"metallicFactor\":0,\"roughnessFactor\":0.6}}],"
-         "\"textures\":[{\"sampler\":0,\"source\":0}],"
-         "\"samplers\":[{\"magFilter\":9729,\"minFilter\":9987,\"wrapS\":33071,"
-         "\"wrapT\":33071}],"
-         "\"images\":[{\"name\":\"albedo\",\"mimeType\":\"image/png\",\"bufferView\":" +
-         std::to_string(image_view) + "}]";
+// The JSON from "asset" through "meshes": one node per mesh (the face first).
+std::string GltfMeshesJson(const std::vector<std::string>& names, const std::vector<std::string>& meshes) {
+  std::string json = "{\"asset\":{\"version\":\"2.0\",\"generator\":\"facecap\"},\"scene\":0,\"scenes\":[{\"nodes\":[";
+  for (size_t k = 0; k < names.size(); ++k) json += (k ? "," : "") + std::to_string(k);
+  json += "]}],\"nodes\":[";
+  for (size_t k = 0; k < names.size(); ++k) {
+    json += (k ? "," : "") + std::string("{\"name\":") + JsonString(names[k]) + ",\"mesh\":" + std::to_string(k) + "}";
+  }
+  json += "],\"meshes\":[";
+  for (size_t k = 0; k < meshes.size(); ++k) json += (k ? "," : "") + meshes[k];
+  return json + "]";
 }
 
-// ",animations": the morph-target weights per frame at `fps`, linearly interpolated.
+// One material: a base colour factor (linear RGBA) and texture (an index into "textures",
+// -1: none), not metallic.
+struct GltfMaterial {
+  std::string name;
+  Eigen::Vector4f factor = Eigen::Vector4f::Ones();
+  int texture = -1;
+  float roughness = 0.6f;
+  bool blend = false;
+};
+
+// ",materials" ... ",images": the materials, and one texture per embedded PNG (bufferViews
+// `image_views`), sampled with mipmaps and clamped at the UV square's edges.
+std::string GltfMaterialsJson(const std::vector<GltfMaterial>& materials, const std::vector<int>& image_views,
+                              const std::vector<std::string>& image_names) {
+  std::string json = ",\"materials\":[";
+  for (size_t k = 0; k < materials.size(); ++k) {
+    const GltfMaterial& m = materials[k];
+    json += (k ? "," : "") + std::string("{\"name\":") + JsonString(m.name) + ",\"pbrMetallicRoughness\":{";
+    if (m.factor != Eigen::Vector4f::Ones()) {
+      json += "\"baseColorFactor\":" +
+              GltfBufferBuilder::FloatArray({m.factor[0], m.factor[1], m.factor[2], m.factor[3]}) + ",";
+    }
+    if (m.texture >= 0) json += "\"baseColorTexture\":{\"index\":" + std::to_string(m.texture) + "},";
+    json += "\"metallicFactor\":0,\"roughnessFactor\":" + JsonNumber(m.roughness) + "}";
+    if (m.blend) json += ",\"alphaMode\":\"BLEND\"";
+    json += "}";
+  }
+  json += "]";
+  if (image_views.empty()) return json;
+  json += ",\"textures\":[";
+  for (size_t k = 0; k < image_views.size(); ++k) {
+    json += (k ? "," : "") + std::string("{\"sampler\":0,\"source\":") + std::to_string(k) + "}";
+  }
+  json += "],\"samplers\":[{\"magFilter\":9729,\"minFilter\":9987,\"wrapS\":33071,\"wrapT\":33071}],\"images\":[";
+  for (size_t k = 0; k < image_views.size(); ++k) {
+    json += (k ? "," : "") + std::string("{\"name\":") + JsonString(image_names[k]) +
+            ",\"mimeType\":\"image/png\",\"bufferView\":" + std::to_string(image_views[k]) + "}";
+  }
+  return json + "]";
+}
+
+// ",animations": the morph-target weights per frame at `fps`, linearly interpolated, driving
+// the weights of nodes 0 .. num_nodes - 1 (every mesh has one target per shape).
 std::string GltfAnimationJson(const std::vector<std::vector<float>>& animation_weights, float fps,
-                              int num_shapes, GltfBufferBuilder* buffer) {
+                              int num_shapes, int num_nodes, GltfBufferBuilder* buffer) {
   const size_t num_frames = animation_weights.size();
   std::vector<float> times(num_frames), weights;
   weights.reserve(num_frames * num_shapes);
@@ -913,10 +955,55 @@ std::string GltfAnimationJson(const std::vector<std::vector<float>>& animation_w
   }
   const int time_accessor = buffer->AddFloats(times, 1, true, 0);
   const int weight_accessor = buffer->AddFloats(weights, 1, false, 0);
-  return ",\"animations\":[{\"name\":\"performance\",\"samplers\":[{\"input\":" +
-         std::to_string(time_accessor) + ",\"output\":" + std::to_string(weight_accessor) +
-         ",\"interpolation\":\"LINEAR\"}],\"channels\":[{\"sampler\":0,\"target\":"
-         "{\"node\":0,\"path\":\"weights\"}}]}]";
+  std::string json = ",\"animations\":[{\"name\":\"performance\",\"samplers\":[{\"input\":" +
+                     std::to_string(time_accessor) + ",\"output\":" + std::to_string(weight_accessor) +
+                     ",\"interpolation\":\"LINEAR\"}],\"channels\":[";
+  for (int n = 0; n < num_nodes; ++n) {
+    json += (n ? "," : "") + std::string("{\"sampler\":0,\"target\":{\"node\":") + std::to_string(n) +
+            ",\"path\":\"weights\"}}";
+  }
+  return json + "]}]";
+}
+
+// The accessors of an extra mesh: positions, uvs, indices and its morph targets (deltas).
+GltfMeshAccessors AddExtraMeshData(const GltfExtraMesh& m, int num_shapes, GltfBufferBuilder* buffer) {
+  GltfMeshAccessors a;
+  const int n = static_cast<int>(m.neutral.rows());
+  std::vector<float> data(3 * n);
+  for (int i = 0; i < n; ++i) {
+    for (int c = 0; c < 3; ++c) data[3 * i + c] = m.neutral(i, c) / kCentimetresPerMetre;
+  }
+  a.position = buffer->AddFloats(data, 3, true, 34962);
+  if (m.uvs.rows() == n) {
+    std::vector<float> uv(2 * n);
+    for (int i = 0; i < n; ++i) {
+      uv[2 * i] = m.uvs(i, 0);
+      uv[2 * i + 1] = 1.f - m.uvs(i, 1);
+    }
+    a.uv = buffer->AddFloats(uv, 2, false, 34962);
+  }
+  std::vector<uint32_t> indices;
+  for (int f = 0; f < m.triangles.rows(); ++f) {
+    for (int c = 0; c < 3; ++c) indices.push_back(static_cast<uint32_t>(m.triangles(f, c)));
+  }
+  a.index = buffer->AddIndices(indices);
+  for (int s = 0; s < num_shapes; ++s) {
+    for (int i = 0; i < 3 * n; ++i) data[i] = m.deltas(i, s) / kCentimetresPerMetre;
+    a.targets.push_back(buffer->AddFloats(data, 3, true, 34962));
+  }
+  return a;
+}
+
+void CheckExtraMeshes(const std::vector<GltfExtraMesh>* extra, int num_shapes, const std::string& path) {
+  if (!extra) return;
+  for (const GltfExtraMesh& m : *extra) {
+    const int n = static_cast<int>(m.neutral.rows());
+    const bool ok = n > 0 && m.neutral.allFinite() && (m.uvs.rows() == 0 || m.uvs.rows() == n) &&
+                    m.deltas.rows() == 3 * n && m.deltas.cols() >= num_shapes && m.deltas.allFinite() &&
+                    (m.triangles.rows() == 0 || (m.triangles.minCoeff() >= 0 && m.triangles.maxCoeff() < n)) &&
+                    (!m.texture || (!m.texture->empty() && m.texture->channels == 3 && m.uvs.rows() == n));
+    if (!ok) throw InvalidInputError("cannot export " + path + ": extra mesh " + m.name + " is malformed");
+  }
 }
 
 // Writes the JSON (without its "buffers") and the buffer as a .glb container, or as .gltf
@@ -957,18 +1044,58 @@ void WriteGltfFile(std::string json, std::string bytes, const std::string& path)
 
 void WriteGltf(const rig::Rig& rig, const rig::Vertices& positions, bool morph_targets,
                const std::vector<std::vector<float>>* animation_weights, float fps,
-               const Image8* base_color, const std::string& path) {
+               const Image8* base_color, const std::vector<GltfExtraMesh>* extra, const std::string& path) {
   const int num_shapes = morph_targets ? rig.NumShapes() : 0;
   CheckGltfAnimation(animation_weights, fps, num_shapes, path);
   CheckGltfTexture(rig, base_color, path);
+  CheckExtraMeshes(extra, num_shapes, path);
   const GltfVertices vertices = SplitAtSeams(rig);
   GltfBufferBuilder buffer;
-  GltfMeshAccessors accessors = AddMeshData(rig, positions, num_shapes, vertices, &buffer);
-  if (base_color) accessors.image_view = buffer.AddBytes(EncodePng(*base_color));
-  std::string json = GltfMeshJson(rig, accessors);
-  if (base_color) json += GltfMaterialJson(accessors.image_view);
+  const GltfMeshAccessors accessors = AddMeshData(rig, positions, num_shapes, vertices, &buffer);
+  std::vector<std::string> target_names;
+  for (int s = 0; s < num_shapes; ++s) target_names.push_back(rig.shapes[s].name);
+  std::vector<GltfMaterial> materials;
+  std::vector<int> image_views;
+  std::vector<std::string> image_names;
+  if (base_color) {
+    image_views.push_back(buffer.AddBytes(EncodePng(*base_color)));
+    image_names.push_back("albedo");
+    GltfMaterial skin;
+    skin.name = "skin";
+    skin.texture = 0;
+    materials.push_back(skin);
+  }
+  std::vector<const Image8*> textures;  // the extra meshes' distinct textures, in image order
+  std::vector<std::string> names = {"face"};
+  std::vector<std::string> meshes = {GltfMeshObject("face", accessors, base_color ? 0 : -1, target_names)};
+  if (extra) {
+    for (const GltfExtraMesh& m : *extra) {
+      const GltfMeshAccessors a = AddExtraMeshData(m, num_shapes, &buffer);
+      GltfMaterial material;
+      material.name = m.material.empty() ? m.name : m.material;
+      material.factor = m.base_color;
+      material.roughness = m.roughness;
+      material.blend = m.blend;
+      if (m.texture) {
+        // One embedded image per distinct texture (both eyeballs share the iris).
+        auto known = std::find(textures.begin(), textures.end(), m.texture);
+        if (known == textures.end()) {
+          textures.push_back(m.texture);
+          image_views.push_back(buffer.AddBytes(EncodePng(*m.texture)));
+          image_names.push_back(m.name);
+          known = textures.end() - 1;
+        }
+        material.texture = static_cast<int>(known - textures.begin()) + (base_color ? 1 : 0);
+      }
+      materials.push_back(material);
+      names.push_back(m.name);
+      meshes.push_back(GltfMeshObject(m.name, a, static_cast<int>(materials.size()) - 1, target_names));
+    }
+  }
+  std::string json = GltfMeshesJson(names, meshes);
+  if (!materials.empty()) json += GltfMaterialsJson(materials, image_views, image_names);
   if (animation_weights && !animation_weights->empty()) {
-    json += GltfAnimationJson(*animation_weights, fps, num_shapes, &buffer);
+    json += GltfAnimationJson(*animation_weights, fps, num_shapes, static_cast<int>(names.size()), &buffer);
   }
   json += ",\"accessors\":" + buffer.AccessorsJson();
   json += ",\"bufferViews\":" + buffer.ViewsJson();
@@ -979,9 +1106,9 @@ void WriteGltf(const rig::Rig& rig, const rig::Vertices& positions, bool morph_t
 
 void ExportRigToGltf(const rig::Rig& rig, const std::string& path,
                      const std::vector<std::vector<float>>* animation_weights, float fps,
-                     const Image8* base_color) {
+                     const Image8* base_color, const std::vector<GltfExtraMesh>* extra_meshes) {
   CheckRigForExport(rig, path);
-  WriteGltf(rig, rig.neutral, true, animation_weights, fps, base_color, path);
+  WriteGltf(rig, rig.neutral, true, animation_weights, fps, base_color, extra_meshes, path);
 }
 
 void ExportPosedMesh(const rig::Rig& rig, const rig::Vertices& posed, const std::string& path) {
@@ -1001,7 +1128,7 @@ void ExportPosedMesh(const rig::Rig& rig, const rig::Vertices& posed, const std:
     ExportMeshObj(posed, rig.triangles, has_uvs ? &rig.uvs : nullptr,
                   has_uvs ? &rig.uv_triangles : nullptr, path);
   } else if (extension == ".glb" || extension == ".gltf") {
-    WriteGltf(rig, posed, false, nullptr, 30.f, nullptr, path);
+    WriteGltf(rig, posed, false, nullptr, 30.f, nullptr, nullptr, path);
   } else {
     throw InvalidInputError("ExportPosedMesh(" + path +
                             "): the extension must be .obj, .glb or .gltf");

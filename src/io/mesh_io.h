@@ -66,6 +66,22 @@ void ExportRigToObjFolder(const rig::Rig& rig, const std::string& dir);
 // coordinates stay per glTF vertex through uv_triangles. Jaw weights 0, one region "skin".
 rig::Rig ImportRigFromGltf(const std::string& path);
 
+// A mesh written beside a rig's face in glTF (a secondary part: eyes, teeth, ...): its own
+// vertices (cm), triangles, per-vertex uvs (or none), one morph target per rig shape
+// (deltas: 3#V by at least the rig's shape count, vertices interleaved, cm), and its material.
+struct GltfExtraMesh {
+  std::string name;
+  std::string material;                          // material name (empty: the mesh's name)
+  rig::Vertices neutral;
+  rig::Triangles triangles;
+  rig::UVs uvs;
+  Eigen::MatrixXf deltas;
+  Eigen::Vector4f base_color = Eigen::Vector4f::Ones();  // linear RGBA factor
+  const Image8* texture = nullptr;               // base colour texture (8-bit sRGB), or none
+  float roughness = 0.5f;
+  bool blend = false;                            // alpha blended (cornea, lacrimal fluid)
+};
+
 // Writes glTF 2.0: a .glb (binary container) when path ends in ".glb", else a .gltf with its
 // buffer embedded as a base64 data URI. One mesh, one primitive, positions (+ TEXCOORD_0 when
 // the rig has uvs), one morph target per shape holding the shape's full effect S(e_i) - N:
@@ -76,9 +92,13 @@ rig::Rig ImportRigFromGltf(const std::string& path);
 // added. When base_color is given (8-bit sRGB, row 0 at v = 1 as io/texture_file.h stores
 // textures), it is embedded as a PNG and the primitive gets a material with it as its base
 // colour texture; InvalidInputError when the rig has no UVs or the image is not RGB.
+// `extra_meshes` become further nodes and meshes, each with the face's morph target names and
+// its own material; the animation drives every node's weights. InvalidInputError names a
+// malformed extra mesh.
 void ExportRigToGltf(const rig::Rig& rig, const std::string& path,
                      const std::vector<std::vector<float>>* animation_weights = nullptr,
-                     float fps = 30.f, const Image8* base_color = nullptr);
+                     float fps = 30.f, const Image8* base_color = nullptr,
+                     const std::vector<GltfExtraMesh>* extra_meshes = nullptr);
 
 // Writes one pose of a rig as a static mesh: `posed` (#V x 3, cm, e.g. from RigEvaluator)
 // with the rig's triangles and texture coordinates. The path's extension picks the format:

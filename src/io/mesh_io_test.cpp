@@ -361,6 +361,56 @@ TEST(GltfTest, GlbEmbedsTheBaseColourTexture) {
                InvalidInputError);
 }
 
+// Extra meshes (secondary parts) become meshes of their own with the face's morph targets, a
+// material each (a textured one and an alpha-blended one), and the animation drives them all.
+TEST(GltfTest, ExtraMeshesCarryTheirOwnTargetsMaterialsAndAnimation) {
+  testing::TempDir tmp;
+  const Rig rig = CylinderRig(true);
+  const int S = rig.NumShapes();
+  Image8 iris(4, 4, 3, 200);
+  std::vector<GltfExtraMesh> extra(2);
+  for (int k = 0; k < 2; ++k) {
+    GltfExtraMesh& m = extra[k];
+    m.name = k == 0 ? "left_eyeball" : "left_cornea";
+    m.neutral.resize(3, 3);
+    m.neutral << 0, 0, 0, 1, 0, 0, 0, 1, 0;
+    m.triangles.resize(1, 3);
+    m.triangles << 0, 1, 2;
+    m.uvs.resize(3, 2);
+    m.uvs << 0, 0, 1, 0, 0, 1;
+    m.deltas = Eigen::MatrixXf::Zero(9, S);
+    m.deltas(1, 0) = 2.f;  // vertex 0 moves 2 cm up in the first shape
+  }
+  extra[0].texture = &iris;
+  extra[1].base_color = {1.f, 1.f, 1.f, 0.1f};
+  extra[1].blend = true;
+  std::vector<std::vector<float>> animation = {std::vector<float>(S, 0.f), std::vector<float>(S, 1.f)};
+  ExportRigToGltf(rig, tmp.File("assembled.gltf"), &animation, 30.f, nullptr, &extra);
+
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFile(tmp.File("assembled.gltf"), 0);
+  ASSERT_NE(scene, nullptr) << importer.GetErrorString();
+  ASSERT_EQ(scene->mNumMeshes, 3u);
+  const aiMesh* eye = nullptr;
+  for (unsigned k = 0; k < scene->mNumMeshes; ++k) {
+    if (std::string(scene->mMeshes[k]->mName.C_Str()) == "left_eyeball") eye = scene->mMeshes[k];
+  }
+  ASSERT_NE(eye, nullptr);
+  ASSERT_EQ(eye->mNumAnimMeshes, static_cast<unsigned>(S));
+  EXPECT_NEAR(eye->mAnimMeshes[0]->mVertices[0].y - eye->mVertices[0].y, 0.02f, 1e-6f);  // metres
+  aiString where;
+  EXPECT_EQ(scene->mMaterials[eye->mMaterialIndex]->GetTexture(aiTextureType_DIFFUSE, 0, &where), aiReturn_SUCCESS);
+  std::ifstream in(tmp.File("assembled.gltf"));
+  const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(json.find("\"alphaMode\":\"BLEND\""), std::string::npos);
+  EXPECT_NE(json.find("{\"sampler\":0,\"target\":{\"node\":2,\"path\":\"weights\"}}"), std::string::npos);
+  // The face is still the rig that imports (the mesh with the most targets and vertices).
+  ExpectSameRig(rig, ImportRigFromGltf(tmp.File("assembled.gltf")), 1e-4f);
+
+  extra[1].deltas.resize(9, S - 1);
+  EXPECT_THROW(ExportRigToGltf(rig, tmp.File("bad.gltf"), nullptr, 30.f, nullptr, &extra), InvalidInputError);
+}
+
 TEST(GltfTest, MissingOrBrokenFileRejected) {
   testing::TempDir tmp;
   EXPECT_NE(ErrorOf([&] { ImportRigFromGltf(tmp.File("none.glb")); }).find("none.glb"),

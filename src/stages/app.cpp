@@ -27,6 +27,7 @@ void RegisterAll(CLI::App* app, AppState* state) {
   RegisterEval(app, state);
   RegisterTextures(app, state);
   RegisterTexturesNetworks(app, state);
+  RegisterAssemble(app, state);
   RegisterLipsync(app, state);
   RegisterRegress(app, state);
   RegisterRun(app, state);

@@ -106,6 +106,8 @@ const std::map<std::string, StageInputs>& ValidRuns() {
       {"export.textures", {{{"library", "library.h5"}, {"track", "track.h5"}}, "", {}}},
       {"textures.train", {{{"scans", "scans.h5"}}, "--epochs 1 --batch 24 --channels 2 --residual-blocks 0 --threads 1", {}}},
       {"textures.infer", {{{"model", "texnet.h5"}, {"rig", "scans_rig.h5"}, {"scans", "scans.h5"}}, "", {}}},
+      {"assemble", {{{"rig", "scans_rig.h5"}}, "", {}}},
+      {"eval.assembly", {{{"scans", "scans.h5"}, {"model", "bsgen.h5"}}, "--combinations 10", {}}},
       {"track",
        {{{"rig", "rig.h5"}, {"targets", "samples.h5"}, {"frames", ""}},
         "--targets-dataset /samples/segmentation", {}}},

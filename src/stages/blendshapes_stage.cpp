@@ -30,6 +30,7 @@
 #include "io/mesh_io.h"
 #include "io/rig_io.h"
 #include "nn/blendshape_generator.h"
+#include "stages/blendshape_predictor.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
 #include "stages/holdout.h"
@@ -521,6 +522,32 @@ LoadedModel LoadModel(const std::string& path) {
   m.model->PrepareInference();
   return m;
 }
+
+}  // namespace
+
+struct BlendshapePredictor::Impl {
+  LoadedModel m;
+};
+
+BlendshapePredictor::BlendshapePredictor(const std::string& model_path)
+    : impl_(std::make_unique<Impl>(Impl{LoadModel(model_path)})) {}
+BlendshapePredictor::~BlendshapePredictor() = default;
+
+const rig::Rig& BlendshapePredictor::topology() const { return impl_->m.topology; }
+
+assets::LinearShapes BlendshapePredictor::Personalize(const rig::Vertices& neutral) const {
+  if (neutral.rows() != impl_->m.tmpl.NumVertices()) {
+    throw InvalidInputError("blendshape model: a neutral of " + std::to_string(neutral.rows()) +
+                            " vertices for a template of " + std::to_string(impl_->m.tmpl.NumVertices()));
+  }
+  assets::LinearShapes out;
+  out.neutral = neutral;
+  out.names = impl_->m.tmpl.names;
+  out.deltas = impl_->m.Personalize(Eigen::Map<const Eigen::VectorXf>(neutral.data(), neutral.size()));
+  return out;
+}
+
+namespace {
 
 // The expressions an example-based fit with hold-out sees: all but every holdout_every-th
 // (k % holdout_every == holdout_every - 1); all when holdout_every is 0.

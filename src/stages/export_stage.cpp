@@ -21,6 +21,7 @@
 #include "rig/evaluate.h"
 #include "synth/appearance.h"
 #include "stages/cli.h"
+#include "stages/parts_file.h"
 #include "stages/registry.h"
 #include "stages/rig_texture.h"
 #include "stages/tracked_rig.h"
@@ -244,10 +245,12 @@ void RunExportGltf(const StageFlags& flags, AppState* state) {
   }
   const float fps = ExportFps(o.fps, o.track);
   const Image8 texture = ReadRigTextureSrgb(o.rig);
-  io::ExportRigToGltf(rig, o.out, &animation, fps, texture.empty() ? nullptr : &texture);
-  FC_INFO("export gltf: {} morph targets ({} animated), {} frames at {} fps{} -> {}",
+  const PartMeshes parts = ReadPartMeshes(o.rig, rig);
+  io::ExportRigToGltf(parts.face, o.out, &animation, fps, texture.empty() ? nullptr : &texture, &parts.meshes);
+  FC_INFO("export gltf: {} morph targets ({} animated), {} frames at {} fps{}{} -> {}",
           rig.NumShapes(), matched, animation.size(), fps,
-          texture.empty() ? "" : ", the rig file's texture", o.out);
+          texture.empty() ? "" : ", the rig file's texture",
+          parts.meshes.empty() ? "" : ", " + std::to_string(parts.meshes.size()) + " secondary parts", o.out);
 }
 
 // [export.overlay]

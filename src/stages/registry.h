@@ -174,6 +174,7 @@ void RegisterSynthClip(CLI::App* synth, AppState* state);
 // `synth crops`, under the `synth` subcommand.
 void RegisterSynthCrops(CLI::App* synth, AppState* state);
 void RegisterIngest(CLI::App* app, AppState* state);
+void RegisterAssemble(CLI::App* app, AppState* state);
 void RegisterCurate(CLI::App* app, AppState* state);
 void RegisterDeepfake(CLI::App* app, AppState* state);
 void RegisterExport(CLI::App* app, AppState* state);

@@ -9,6 +9,7 @@
 #include "rig/demo_head.h"
 #include "rig/perturb.h"
 #include "stages/cli.h"
+#include "stages/parts_file.h"
 #include "stages/registry.h"
 #include "stages/rig_texture.h"
 #include "util/errors.h"
@@ -188,9 +189,11 @@ void RunRigExport(const StageFlags& flags, AppState* state) {
   }
   if (!o.gltf.empty()) {
     const Image8 texture = ReadRigTextureSrgb(o.rig);
-    io::ExportRigToGltf(rig, o.gltf, nullptr, 30.f, texture.empty() ? nullptr : &texture);
-    FC_INFO("rig export: glTF with {} morph targets{} -> {}", rig.NumShapes(),
-            texture.empty() ? "" : " and the rig file's texture", o.gltf);
+    const PartMeshes parts = ReadPartMeshes(o.rig, rig);
+    io::ExportRigToGltf(parts.face, o.gltf, nullptr, 30.f, texture.empty() ? nullptr : &texture, &parts.meshes);
+    FC_INFO("rig export: glTF with {} morph targets{}{} -> {}", rig.NumShapes(),
+            texture.empty() ? "" : " and the rig file's texture",
+            parts.meshes.empty() ? "" : ", " + std::to_string(parts.meshes.size()) + " secondary parts", o.gltf);
   }
 }
 
