@@ -94,7 +94,7 @@ def main():
     eye_centre = 0.5 * (eye.min(axis=0) + eye.max(axis=0))
     teeth = next(p for p in parts if p["name"] == "upper_teeth")["neutral"]
     mouth = 0.5 * (teeth.min(axis=0) + teeth.max(axis=0))
-    cuts = [("left eye", eye_centre[0], eye_centre, 2.4), ("mouth", 0.0, mouth - np.array([0, 1.5, 0]), 5.0)]
+    cuts = [("left eye", eye_centre[0], eye_centre, 2.4), ("mouth", 0.0, mouth - np.array([0, 3.0, 1.5]), 7.0)]
     fig, axes = plt.subplots(len(cuts), len(POSES), figsize=(3.2 * len(POSES), 3.4 * len(cuts)))
     for row, (label, x0, centre, half) in enumerate(cuts):
         for col, (title, weights) in enumerate(POSES):

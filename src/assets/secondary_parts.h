@@ -98,7 +98,8 @@ struct PartSet {
 PartSet MakeGenericParts(const rig::Rig& head, const LinearShapes& shapes);
 
 struct AssemblyOptions {
-  // lambda of step 2, relative to the mean diagonal of A^T A.
+  // lambda of step 2, relative to the mean diagonal of A^T A: it keeps the coefficients of
+  // shapes that do not move a region's vertices at their prior.
   float regularization = 1e-3f;
   // Step 3 (bound vertices add their face vertex's fit residual).
   bool follow_residual = true;

@@ -62,7 +62,7 @@ struct AssembleOptions {
   std::string rig = "rig.h5";         // personalized rig (blendshapes infer, textures infer)
   std::string out = "assembled.h5";   // the rig file with /parts
   int head_resolution = 60;           // demo head resolution of the rig's topology
-  float regularization = 1e-3f;       // lambda of the coefficient fit
+  int clearance_shapes = 8;           // lids clear the eyeballs in combinations of this many shapes
   int iris = -1;                      // procedural iris; -1: matched to the rig's albedo
   int iris_size = 256;                // iris texture size
 
@@ -73,20 +73,20 @@ struct AssembleOptions {
     v("out", out, "assembled rig file: the input's rig, textures and library plus /parts");
     v("head_resolution", head_resolution, "demo head resolution of the rig's topology (the scan database's "
                                           "head_resolution), [60, 300]");
-    v("regularization", regularization, "lambda of the coefficient fit c = argmin |A c - d|^2 + lambda |c - e_i|^2, "
-                                        "relative to the mean diagonal of A^T A, [0, 1000]");
+    v("clearance_shapes", clearance_shapes, "an eyeball is set back until the lids clear it in every combination of this "
+                                            "many shapes at weights in [0, 1], [0, 64]; 0: never set back");
     v("iris", iris, "procedural iris [0, 11]; -1 picks the one nearest the albedo's iris colour (0 without albedo)");
     v("iris_size", iris_size, "iris texture size in texels, [16, 4096]");
   }
   bool Check(std::string* why) const {
     if (rig.empty() || out.empty()) { *why = "rig and out must name files"; return false; }
     if (head_resolution < 60 || head_resolution > 300) { *why = "head_resolution must be in [60, 300]"; return false; }
-    if (!(regularization >= 0.f && regularization <= 1e3f)) { *why = "regularization must be in [0, 1000]"; return false; }
     if (iris < -1 || iris >= static_cast<int>(assets::IrisColors().size())) {
       *why = "iris must be -1 or in [0, " + std::to_string(assets::IrisColors().size() - 1) + "]";
       return false;
     }
     if (iris_size < 16 || iris_size > 4096) { *why = "iris_size must be in [16, 4096]"; return false; }
+    if (clearance_shapes < 0 || clearance_shapes > 64) { *why = "clearance_shapes must be in [0, 64]"; return false; }
     return true;
   }
 };
@@ -102,7 +102,7 @@ void RunAssemble(const StageFlags& flags, AppState* state) {
   const GenericParts g = MakeGeneric(face, o.head_resolution, o.rig);
   const assets::LinearShapes person = assets::LinearizeRig(face);
   assets::AssemblyOptions ao;
-  ao.regularization = o.regularization;
+  ao.clearance_shapes = o.clearance_shapes;
   assets::AssemblyReport report;
   assets::PartSet parts = assets::AssembleParts(g.parts, g.shapes, person, ao, &report);
   const ImageF albedo = io::ReadRigTexture(o.rig);
@@ -120,8 +120,9 @@ void RunAssemble(const StageFlags& flags, AppState* state) {
   int vertices = 0;
   for (const auto& p : parts.parts) vertices += p.NumVertices();
   FC_INFO("assemble: {} parts ({} vertices) on {} shapes; placement rms {:.3f} mm, shape fit rms {:.3f} mm mean, "
-          "{:.3f} mm worst; iris {}{} -> {}",
+          "{:.3f} mm worst; eyeballs set back {:.2f} / {:.2f} mm; iris {}{} -> {}",
           parts.parts.size(), vertices, parts.NumShapes(), 10.f * report.placement_rms_cm, 10.f * mean, 10.f * worst,
+          10.f * report.eyeball_setback_cm[0], 10.f * report.eyeball_setback_cm[1],
           parts.iris, o.iris >= 0 ? "" : albedo.empty() ? " (no albedo to match)" : " (matched to the albedo)", o.out);
 }
 
