@@ -283,20 +283,6 @@ Sphere FitSphere(const rig::Vertices& points, const std::vector<int>& rows) {
   return s;
 }
 
-rig::Vertices SecondaryPart::Evaluate(const Eigen::VectorXf& weights) const {
-  const Eigen::VectorXf d = deltas * weights;
-  rig::Vertices out = neutral;
-  for (int k = 0; k < NumVertices(); ++k) out.row(k) += d.segment<3>(3 * k).transpose();
-  return out;
-}
-
-int PartSet::PartIndex(const std::string& name) const {
-  for (size_t k = 0; k < parts.size(); ++k) {
-    if (parts[k].name == name) return static_cast<int>(k);
-  }
-  return -1;
-}
-
 bool AssemblyOptions::Check(std::string* why) const {
   if (!(regularization >= 0.f && regularization <= 1e3f)) {
     *why = "regularization must be in [0, 1000]";

@@ -24,8 +24,7 @@
 //      edge) until they clear it.
 // The template's own neutral and shapes give c_i = e_i and zero residuals: the generic parts.
 //
-// Deltas are dense, 3#P by N with the vertices interleaved (x0, y0, z0, x1, ...), in the shape
-// order of the face's blendshape set. Units: centimetres.
+// The parts are rig::PartSet (rig/parts.h). Units: centimetres.
 #ifndef FACECAP_ASSETS_SECONDARY_PARTS_H_
 #define FACECAP_ASSETS_SECONDARY_PARTS_H_
 
@@ -35,37 +34,17 @@
 #include <Eigen/Core>
 
 #include "assets/template_shapes.h"
+#include "rig/parts.h"
 #include "rig/rig.h"
 #include "util/image.h"
 
 namespace facecap::assets {
 
-struct SecondaryPart {
-  std::string name;        // "left_eyeball", "upper_teeth", ...
-  std::string material;    // eye, cornea, lacrimal, lashes, teeth, gums, tongue
-  int group = 0;           // index into PartSet::groups
-  rig::Vertices neutral;   // #P x 3 (cm)
-  rig::Triangles triangles;
-  rig::UVs uvs;            // one per vertex, in [0, 1]^2
-  Eigen::MatrixXf deltas;  // 3#P x N
-  std::vector<int> follow; // per vertex: the face vertex whose fit residual it adds, or -1
+using rig::PartGroup;
+using rig::PartSet;
+using rig::SecondaryPart;
 
-  int NumVertices() const { return static_cast<int>(neutral.rows()); }
-  // neutral + deltas * weights (weights has N entries).
-  rig::Vertices Evaluate(const Eigen::VectorXf& weights) const;
-};
 
-struct PartGroup {
-  std::string name;            // left_eye, right_eye, mouth, jaw, left_eyeball, right_eyeball
-  std::vector<int> placement;  // face vertices whose similarity transform places the group
-  std::vector<int> fit;        // face vertices the shape coefficients are fitted on
-  // A rigid group (the jaw) follows the rigid motion of its fit vertices in each shape instead
-  // of a coefficient fit; shape-specific motion beyond it (tongueOut) comes from the generic
-  // shape of the same name.
-  bool rigid = false;
-  // Face vertices the group's eyeball must stay behind (the lids; empty for other groups).
-  std::vector<int> clear;
-};
 
 // Face vertices that the assembly's checks use (all ascending, in the face's topology).
 struct FaceParts {
@@ -82,15 +61,6 @@ struct FaceParts {
 // none). InvalidInputError when a region is missing or an eye has no eyeball or margin.
 FaceParts FindFaceParts(const rig::Rig& head);
 
-struct PartSet {
-  std::vector<std::string> shape_names;  // N, the face's blendshape set
-  std::vector<PartGroup> groups;
-  std::vector<SecondaryPart> parts;
-  int iris = 0;                          // index into IrisColors()
-
-  int NumShapes() const { return static_cast<int>(shape_names.size()); }
-  int PartIndex(const std::string& name) const;  // -1 when absent
-};
 
 // The generic parts of the demo head `head` (with its ARKit shapes, jaw angles and pivot), with
 // one delta per shape of `shapes` (MakeTemplateShapes(head), or LinearizeRig(head)); a shape

@@ -8,12 +8,12 @@
 #include "assets/secondary_parts.h"
 #include "assets/template_shapes.h"
 #include "io/atomic_file.h"
+#include "io/parts_io.h"
 #include "io/rig_io.h"
 #include "io/texture_file.h"
 #include "rig/demo_head.h"
 #include "stages/blendshape_predictor.h"
 #include "stages/cli.h"
-#include "stages/parts_file.h"
 #include "stages/registry.h"
 #include "synth/skin_dynamics.h"
 #include "util/errors.h"
@@ -113,7 +113,7 @@ void RunAssemble(const StageFlags& flags, AppState* state) {
     if (in.Exists(name)) f.CopyFrom(in, name);
   }
   f.WriteProvenance(MakeProvenance(ctx, "assemble", resolved));
-  WriteParts(&f, parts, assets::IrisTexture(parts.iris, o.iris_size));
+  io::WriteParts(&f, parts, assets::IrisTexture(parts.iris, o.iris_size));
   f.Commit();
   float worst = 0.f, mean = 0.f;
   for (float r : report.fit_rms_cm) worst = std::max(worst, r), mean += r / std::max<size_t>(1, report.fit_rms_cm.size());

@@ -17,13 +17,8 @@ namespace {
 
 using testing::RunFacecap;
 
-// The number after "key": inside the object that follows "object": in a JSON text.
 double Nested(const std::string& json, const std::string& object, const std::string& key) {
-  const size_t o = json.find("\"" + object + "\": {");
-  if (o == std::string::npos) return NAN;
-  const size_t at = json.find("\"" + key + "\": ", o);
-  if (at == std::string::npos) return NAN;
-  return std::strtod(json.c_str() + at + key.size() + 4, nullptr);
+  return testing::NestedJsonNumber(json, object, key);
 }
 
 TEST(AssembleStage, TheDemoHeadGetsItsPartsAndExportsThemAsMeshes) {

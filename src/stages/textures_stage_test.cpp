@@ -37,13 +37,8 @@ class TexturedScans : public ::testing::Test {
   static std::string Synth(const std::string& out) {
     return "scans synth --people 4 --test-people 1 --texture-size 64 --threads 1 --out " + out;
   }
-  // The number after "key": inside the object that follows "object": in a JSON text.
   static double Nested(const std::string& json, const std::string& object, const std::string& key) {
-    const size_t o = json.find("\"" + object + "\": {");
-    if (o == std::string::npos) return NAN;
-    const size_t at = json.find("\"" + key + "\": ", o);
-    if (at == std::string::npos) return NAN;
-    return std::strtod(json.c_str() + at + key.size() + 4, nullptr);
+    return testing::NestedJsonNumber(json, object, key);
   }
   // The database's template as a rig file (any rig of its topology drives a library).
   static std::string TemplateRigFile() {

@@ -1,5 +1,6 @@
 #include "testing/testing.h"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <sys/wait.h>
@@ -50,5 +51,13 @@ CommandResult RunFacecap(const std::string& args, int ranks, const std::string& 
 
 std::string BuildDir() { return FACECAP_BUILD_DIR; }
 std::string SourceDir() { return FACECAP_SOURCE_DIR; }
+
+double NestedJsonNumber(const std::string& json, const std::string& object, const std::string& key) {
+  const size_t o = json.find("\"" + object + "\": {");
+  if (o == std::string::npos) return std::nan("");
+  const size_t at = json.find("\"" + key + "\": ", o);
+  if (at == std::string::npos) return std::nan("");
+  return std::strtod(json.c_str() + at + key.size() + 4, nullptr);
+}
 
 }  // namespace facecap::testing

@@ -38,6 +38,10 @@ std::string BuildDir();
 // The source tree's root (for jobs/ and datasets/).
 std::string SourceDir();
 
+// The number after "key": inside the object that follows "object": in a JSON text (an
+// evaluation's output), or NaN when either is missing.
+double NestedJsonNumber(const std::string& json, const std::string& object, const std::string& key);
+
 }  // namespace facecap::testing
 
 #endif  // FACECAP_TESTS_TESTING_TESTING_H_
