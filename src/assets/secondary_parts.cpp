@@ -372,17 +372,16 @@ FaceParts FindFaceParts(const rig::Rig& head) {
   return out;
 }
 
-PartSet MakeGenericParts(const rig::Rig& head, const LinearShapes& shapes) {
-  if (shapes.NumVertices() != head.NumVertices()) {
-    throw InvalidInputError("assembly: the template shapes and the head differ in vertex count");
-  }
-  const FaceParts where = FindFaceParts(head);
-  const int N = shapes.NumShapes();
-  const rig::Vertices& neutral = head.neutral;
-  PartSet out;
-  out.shape_names = shapes.names;
+namespace {
 
-  // Mouth geometry from the lip slit: the vertices shared by the lips and the mouth interior.
+// The lip slit (the vertices shared by the lips and the mouth interior) and the mouth's vertices.
+struct MouthFrame {
+  std::vector<int> vertices;  // lips and mouth interior
+  float slit_y = 0.f, front_z = 0.f, half_width = 0.f;
+};
+
+MouthFrame FindMouth(const rig::Rig& head) {
+  const rig::Vertices& neutral = head.neutral;
   const int upper_lip = RegionIndex(head, "upper_lip"), lower_lip = RegionIndex(head, "lower_lip");
   const int interior = RegionIndex(head, "mouth_interior");
   std::set<int> lips, inside, mouth_all;
@@ -407,7 +406,19 @@ PartSet MakeGenericParts(const rig::Rig& head, const LinearShapes& shapes) {
     mouth_half = std::max(mouth_half, std::abs(neutral(v, 0)));
   }
 
-  // Groups.
+  MouthFrame mouth;
+  mouth.vertices = Sorted(mouth_all);
+  mouth.slit_y = y_m;
+  mouth.front_z = z_front;
+  mouth.half_width = mouth_half;
+  return mouth;
+}
+
+// The groups that place and drive the parts: each eye, the mouth, the jaw and each eyeball.
+void AddGroups(const rig::Rig& head, const LinearShapes& shapes, const FaceParts& where,
+               const std::vector<int>& mouth_vertices, PartSet* out_set) {
+  PartSet& out = *out_set;
+  const int N = shapes.NumShapes();
   for (int side = 0; side < 2; ++side) {
     PartGroup g;
     g.name = side == 0 ? "left_eye" : "right_eye";
@@ -420,8 +431,8 @@ PartSet MakeGenericParts(const rig::Rig& head, const LinearShapes& shapes) {
   {
     PartGroup g;
     g.name = "mouth";
-    g.placement = Sorted(mouth_all);
-    std::set<int> fit = mouth_all;
+    g.placement = mouth_vertices;
+    std::set<int> fit(mouth_vertices.begin(), mouth_vertices.end());
     fit.insert(where.jaw.begin(), where.jaw.end());
     g.fit = Sorted(fit);
     out.groups.push_back(g);
@@ -459,122 +470,145 @@ PartSet MakeGenericParts(const rig::Rig& head, const LinearShapes& shapes) {
     g.clear = where.lid_vertices[side];
     out.groups.push_back(g);
   }
-  // Eyes: eyeball with iris texture, cornea, lashes, lacrimal strip.
-  for (int side = 0; side < 2; ++side) {
-    const std::string prefix = side == 0 ? "left_" : "right_";
-    Vec3 c;
-    float r;
-    FitSphere(Gather(neutral, where.eyeball[side]), &c, &r);
-    const float re = r + kEyeballClearanceCm;
-    // Per-shape rigid motion of the face's eyeball.
-    std::vector<Eigen::Matrix3f> rot(N);
-    std::vector<Vec3> trans(N);
-    const std::vector<Vec3> eye0 = Gather(neutral, where.eyeball[side]);
-    for (int j = 0; j < N; ++j) {
-      std::vector<Vec3> eye1 = eye0;
-      for (size_t k = 0; k < eye1.size(); ++k) eye1[k] += DeltaOf(shapes.deltas, where.eyeball[side][k], j);
-      Eigen::Matrix3f rr;
-      Vec3 tt;
-      RigidFit(eye0, eye1, &rr, &tt);
-      rot[j] = rr;
-      trans[j] = rr * c + tt - c;  // motion of the centre
-    }
-    {
-      MeshBuilder m;
-      AddEllipsoid(&m, c, Vec3::Constant(re), 24, 12);
-      SecondaryPart p = m.Finish(prefix + "eyeball", "eye", 4 + side, N);
-      for (int j = 0; j < N; ++j) RigidDeltas(&p, j, rot[j], c, trans[j]);
-      out.parts.push_back(std::move(p));
-    }
-    {
-      // Cornea: a cap over the iris bulging 0.6 mm in front of the eyeball part.
-      MeshBuilder m;
-      const int segments = 24, bands = 6;
-      const float cap = std::asin(kIrisRadius) * 1.15f;
-      auto add = [&](float polar, float phi) {
-        const float bulge = 0.06f * std::pow(std::cos(0.5f * kPi * polar / cap), 2.f);
-        const Vec3 unit(std::sin(polar) * std::cos(phi), std::sin(polar) * std::sin(phi), std::cos(polar));
-        return m.Add(c + (re + 0.002f + bulge) * unit, 0.5f + 0.5f * unit.x(), 0.5f + 0.5f * unit.y());
-      };
-      const int front = add(0.f, 0.f);
-      for (int b = 1; b <= bands; ++b) {
-        for (int s = 0; s < segments; ++s) add(cap * b / bands, 2.f * kPi * s / segments);
+}
+
+// A lash card strip along one lid margin, rooted on the margin vertices and curling outwards (up
+// for the upper lid, down for the lower); every card vertex turns with its root about the eyeball
+// centre c.
+SecondaryPart MakeLashes(const rig::Vertices& neutral, const LinearShapes& shapes,
+                         const std::vector<int>& margin, const Vec3& c, int lid, int side,
+                         const std::string& prefix) {
+  const int N = shapes.NumShapes();
+  const float up = lid == 0 ? 1.f : -1.f, length = lid == 0 ? 0.85f : 0.4f;
+  MeshBuilder m;
+  const int n = static_cast<int>(margin.size());
+  for (int k = 0; k < n; ++k) {
+    const Vec3 root = Row(neutral, margin[k]);
+    const Vec3 out_dir = (root - c).normalized();
+    const float along = n > 1 ? static_cast<float>(k) / (n - 1) : 0.5f;
+    const float len = length * (0.45f + 0.55f * std::sin(kPi * along));
+    const Vec3 mid = root + 0.5f * len * (out_dir + Vec3(0, 0.25f * up, 0)).normalized();
+    const Vec3 tip = mid + 0.5f * len * (out_dir + Vec3(0, 1.2f * up, 0)).normalized();
+    m.Add(root, along, 0.f, margin[k]);
+    m.Add(mid, along, 0.5f, margin[k]);
+    m.Add(tip, along, 1.f, margin[k]);
+  }
+  for (int k = 0; k + 1 < n; ++k) {
+    if (lid == 0) m.Quad(3 * k, 3 * (k + 1), 3 * (k + 1) + 1, 3 * k + 1), m.Quad(3 * k + 1, 3 * (k + 1) + 1, 3 * (k + 1) + 2, 3 * k + 2);
+    else m.Quad(3 * k, 3 * k + 1, 3 * (k + 1) + 1, 3 * (k + 1)), m.Quad(3 * k + 1, 3 * k + 2, 3 * (k + 1) + 2, 3 * (k + 1) + 1);
+  }
+  SecondaryPart p = m.Finish(prefix + (lid == 0 ? "upper_lashes" : "lower_lashes"), "lashes", side, N);
+  for (int j = 0; j < N; ++j) {
+    for (int k = 0; k < n; ++k) {
+      const Vec3 q = Row(neutral, margin[k]) - c;
+      const Vec3 q1 = q + DeltaOf(shapes.deltas, margin[k], j);
+      const Eigen::Matrix3f rr = ArcRotation(q, q1);
+      const Vec3 radial = q1 - rr * q;
+      for (int row = 0; row < 3; ++row) {
+        const Vec3 x = Row(p.neutral, 3 * k + row);
+        p.deltas.block<3, 1>(3 * (3 * k + row), j) = c + rr * (x - c) + radial - x;
       }
-      auto ring = [&](int b, int s) { return front + 1 + (b - 1) * segments + (s % segments); };
-      for (int s = 0; s < segments; ++s) {
-        m.f.emplace_back(front, ring(1, s), ring(1, s + 1));
-        for (int b = 1; b < bands; ++b) m.Quad(ring(b, s), ring(b + 1, s), ring(b + 1, s + 1), ring(b, s + 1));
-      }
-      SecondaryPart p = m.Finish(prefix + "cornea", "cornea", 4 + side, N);
-      for (int j = 0; j < N; ++j) RigidDeltas(&p, j, rot[j], c, trans[j]);
-      out.parts.push_back(std::move(p));
-    }
-    // Lashes: a card strip along each lid margin, rooted on the margin vertices and curling
-    // outwards (up for the upper lid, down for the lower); every card vertex turns with its root
-    // about the eyeball centre.
-    for (int lid = 0; lid < 2; ++lid) {
-      const std::vector<int>& margin = lid == 0 ? where.upper_margin[side] : where.lower_margin[side];
-      const float up = lid == 0 ? 1.f : -1.f, length = lid == 0 ? 0.85f : 0.4f;
-      MeshBuilder m;
-      const int n = static_cast<int>(margin.size());
-      for (int k = 0; k < n; ++k) {
-        const Vec3 root = Row(neutral, margin[k]);
-        const Vec3 out_dir = (root - c).normalized();
-        const float along = n > 1 ? static_cast<float>(k) / (n - 1) : 0.5f;
-        const float len = length * (0.45f + 0.55f * std::sin(kPi * along));
-        const Vec3 mid = root + 0.5f * len * (out_dir + Vec3(0, 0.25f * up, 0)).normalized();
-        const Vec3 tip = mid + 0.5f * len * (out_dir + Vec3(0, 1.2f * up, 0)).normalized();
-        m.Add(root, along, 0.f, margin[k]);
-        m.Add(mid, along, 0.5f, margin[k]);
-        m.Add(tip, along, 1.f, margin[k]);
-      }
-      for (int k = 0; k + 1 < n; ++k) {
-        if (lid == 0) m.Quad(3 * k, 3 * (k + 1), 3 * (k + 1) + 1, 3 * k + 1), m.Quad(3 * k + 1, 3 * (k + 1) + 1, 3 * (k + 1) + 2, 3 * k + 2);
-        else m.Quad(3 * k, 3 * k + 1, 3 * (k + 1) + 1, 3 * (k + 1)), m.Quad(3 * k + 1, 3 * k + 2, 3 * (k + 1) + 2, 3 * (k + 1) + 1);
-      }
-      SecondaryPart p = m.Finish(prefix + (lid == 0 ? "upper_lashes" : "lower_lashes"), "lashes", side, N);
-      for (int j = 0; j < N; ++j) {
-        for (int k = 0; k < n; ++k) {
-          const Vec3 q = Row(neutral, margin[k]) - c;
-          const Vec3 q1 = q + DeltaOf(shapes.deltas, margin[k], j);
-          const Eigen::Matrix3f rr = ArcRotation(q, q1);
-          const Vec3 radial = q1 - rr * q;
-          for (int row = 0; row < 3; ++row) {
-            const Vec3 x = Row(p.neutral, 3 * k + row);
-            p.deltas.block<3, 1>(3 * (3 * k + row), j) = c + rr * (x - c) + radial - x;
-          }
-        }
-      }
-      out.parts.push_back(std::move(p));
-    }
-    {
-      // Lacrimal fluid: a strip from the lower lid margin to the eyeball part's surface.
-      const std::vector<int>& margin = where.lower_margin[side];
-      MeshBuilder m;
-      const int n = static_cast<int>(margin.size());
-      for (int k = 0; k < n; ++k) {
-        const Vec3 p0 = Row(neutral, margin[k]);
-        const float along = n > 1 ? static_cast<float>(k) / (n - 1) : 0.5f;
-        m.Add(p0, along, 0.f, margin[k]);
-        m.Add(c + (re + 0.003f) * (p0 - c).normalized(), along, 1.f);
-      }
-      for (int k = 0; k + 1 < n; ++k) m.Quad(2 * k, 2 * (k + 1), 2 * (k + 1) + 1, 2 * k + 1);
-      SecondaryPart p = m.Finish(prefix + "lacrimal", "lacrimal", side, N);
-      for (int j = 0; j < N; ++j) {
-        for (int k = 0; k < n; ++k) {
-          const Vec3 q = Row(neutral, margin[k]) - c;
-          const Vec3 q1 = q + DeltaOf(shapes.deltas, margin[k], j);
-          const Eigen::Matrix3f rr = ArcRotation(q, q1);
-          p.deltas.block<3, 1>(6 * k, j) = DeltaOf(shapes.deltas, margin[k], j);
-          const Vec3 x = Row(p.neutral, 2 * k + 1);
-          p.deltas.block<3, 1>(3 * (2 * k + 1), j) = c + rr * (x - c) + trans[j] - x;
-        }
-      }
-      out.parts.push_back(std::move(p));
     }
   }
+  return p;
+}
 
-  // Mouth: teeth and gums on two arches behind the lip slit, a tongue on the floor.
+// Lacrimal fluid: a strip from the lower lid margin to the eyeball part's surface (radius re
+// about c), its inner edge moving with the margin, its outer edge with the eyeball.
+SecondaryPart MakeLacrimal(const rig::Vertices& neutral, const LinearShapes& shapes,
+                           const std::vector<int>& margin, const Vec3& c, float re,
+                           const std::vector<Vec3>& trans, int side, const std::string& prefix) {
+  const int N = shapes.NumShapes();
+  MeshBuilder m;
+  const int n = static_cast<int>(margin.size());
+  for (int k = 0; k < n; ++k) {
+    const Vec3 p0 = Row(neutral, margin[k]);
+    const float along = n > 1 ? static_cast<float>(k) / (n - 1) : 0.5f;
+    m.Add(p0, along, 0.f, margin[k]);
+    m.Add(c + (re + 0.003f) * (p0 - c).normalized(), along, 1.f);
+  }
+  for (int k = 0; k + 1 < n; ++k) m.Quad(2 * k, 2 * (k + 1), 2 * (k + 1) + 1, 2 * k + 1);
+  SecondaryPart p = m.Finish(prefix + "lacrimal", "lacrimal", side, N);
+  for (int j = 0; j < N; ++j) {
+    for (int k = 0; k < n; ++k) {
+      const Vec3 q = Row(neutral, margin[k]) - c;
+      const Vec3 q1 = q + DeltaOf(shapes.deltas, margin[k], j);
+      const Eigen::Matrix3f rr = ArcRotation(q, q1);
+      p.deltas.block<3, 1>(6 * k, j) = DeltaOf(shapes.deltas, margin[k], j);
+      const Vec3 x = Row(p.neutral, 2 * k + 1);
+      p.deltas.block<3, 1>(3 * (2 * k + 1), j) = c + rr * (x - c) + trans[j] - x;
+    }
+  }
+  return p;
+}
+
+// One eye's parts: eyeball with iris texture, cornea, lashes, lacrimal strip.
+void AddEyeParts(const rig::Rig& head, const LinearShapes& shapes, const FaceParts& where, int side,
+                 PartSet* out_set) {
+  PartSet& out = *out_set;
+  const int N = shapes.NumShapes();
+  const rig::Vertices& neutral = head.neutral;
+  const std::string prefix = side == 0 ? "left_" : "right_";
+  Vec3 c;
+  float r;
+  FitSphere(Gather(neutral, where.eyeball[side]), &c, &r);
+  const float re = r + kEyeballClearanceCm;
+  // Per-shape rigid motion of the face's eyeball.
+  std::vector<Eigen::Matrix3f> rot(N);
+  std::vector<Vec3> trans(N);
+  const std::vector<Vec3> eye0 = Gather(neutral, where.eyeball[side]);
+  for (int j = 0; j < N; ++j) {
+    std::vector<Vec3> eye1 = eye0;
+    for (size_t k = 0; k < eye1.size(); ++k) eye1[k] += DeltaOf(shapes.deltas, where.eyeball[side][k], j);
+    Eigen::Matrix3f rr;
+    Vec3 tt;
+    RigidFit(eye0, eye1, &rr, &tt);
+    rot[j] = rr;
+    trans[j] = rr * c + tt - c;  // motion of the centre
+  }
+  {
+    MeshBuilder m;
+    AddEllipsoid(&m, c, Vec3::Constant(re), 24, 12);
+    SecondaryPart p = m.Finish(prefix + "eyeball", "eye", 4 + side, N);
+    for (int j = 0; j < N; ++j) RigidDeltas(&p, j, rot[j], c, trans[j]);
+    out.parts.push_back(std::move(p));
+  }
+  {
+    // Cornea: a cap over the iris bulging 0.6 mm in front of the eyeball part.
+    MeshBuilder m;
+    const int segments = 24, bands = 6;
+    const float cap = std::asin(kIrisRadius) * 1.15f;
+    auto add = [&](float polar, float phi) {
+      const float bulge = 0.06f * std::pow(std::cos(0.5f * kPi * polar / cap), 2.f);
+      const Vec3 unit(std::sin(polar) * std::cos(phi), std::sin(polar) * std::sin(phi), std::cos(polar));
+      return m.Add(c + (re + 0.002f + bulge) * unit, 0.5f + 0.5f * unit.x(), 0.5f + 0.5f * unit.y());
+    };
+    const int front = add(0.f, 0.f);
+    for (int b = 1; b <= bands; ++b) {
+      for (int s = 0; s < segments; ++s) add(cap * b / bands, 2.f * kPi * s / segments);
+    }
+    auto ring = [&](int b, int s) { return front + 1 + (b - 1) * segments + (s % segments); };
+    for (int s = 0; s < segments; ++s) {
+      m.f.emplace_back(front, ring(1, s), ring(1, s + 1));
+      for (int b = 1; b < bands; ++b) m.Quad(ring(b, s), ring(b + 1, s), ring(b + 1, s + 1), ring(b, s + 1));
+    }
+    SecondaryPart p = m.Finish(prefix + "cornea", "cornea", 4 + side, N);
+    for (int j = 0; j < N; ++j) RigidDeltas(&p, j, rot[j], c, trans[j]);
+    out.parts.push_back(std::move(p));
+  }
+  for (int lid = 0; lid < 2; ++lid) {
+    const std::vector<int>& margin = lid == 0 ? where.upper_margin[side] : where.lower_margin[side];
+    out.parts.push_back(MakeLashes(neutral, shapes, margin, c, lid, side, prefix));
+  }
+  out.parts.push_back(MakeLacrimal(neutral, shapes, where.lower_margin[side], c, re, trans, side, prefix));
+}
+
+// The mouth's parts: teeth and gums on two arches behind the lip slit, a tongue on the floor.
+void AddMouthParts(const rig::Rig& head, const LinearShapes& shapes, const MouthFrame& mouth,
+                   PartSet* out_set) {
+  PartSet& out = *out_set;
+  const int N = shapes.NumShapes();
+  const float y_m = mouth.slit_y, z_front = mouth.front_z, mouth_half = mouth.half_width;
   const float w = std::min(1.75f, 0.72f * mouth_half), depth = 2.0f, z0 = z_front - 1.15f;
   const int samples = 25;
   struct ArchDef {
@@ -623,6 +657,21 @@ PartSet MakeGenericParts(const rig::Rig& head, const LinearShapes& shapes) {
     }
     out.parts.push_back(std::move(p));
   }
+}
+
+}  // namespace
+
+PartSet MakeGenericParts(const rig::Rig& head, const LinearShapes& shapes) {
+  if (shapes.NumVertices() != head.NumVertices()) {
+    throw InvalidInputError("assembly: the template shapes and the head differ in vertex count");
+  }
+  const FaceParts where = FindFaceParts(head);
+  const MouthFrame mouth = FindMouth(head);
+  PartSet out;
+  out.shape_names = shapes.names;
+  AddGroups(head, shapes, where, mouth.vertices, &out);
+  for (int side = 0; side < 2; ++side) AddEyeParts(head, shapes, where, side, &out);
+  AddMouthParts(head, shapes, mouth, &out);
   return out;
 }
 

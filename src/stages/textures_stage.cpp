@@ -187,6 +187,71 @@ void WritePersonMaps(const StageContext& ctx, const io::Config& resolved, const 
   f.Commit();
 }
 
+// eval textures' error sums over the held-out people, one per method.
+struct TextureScores {
+  LayerErrors stat, dynamic, in_sample, per_shape, network, predicted;
+  bool model = false;  // network and predicted were scored
+};
+
+// eval textures' JSON (stdout with --json, and --out) or table, with the storage comparison.
+void ReportEvalTextures(const EvalTexturesOptions& o, const TextureScores& scores, int people, int K, int N, int V,
+                        int S) {
+  const LayerErrors &stat = scores.stat, &dynamic = scores.dynamic, &in_sample = scores.in_sample,
+                    &per_shape = scores.per_shape, &network = scores.network, &predicted = scores.predicted;
+  const bool model = scores.model;
+  const size_t n = static_cast<size_t>(S) * S;
+  const float b = o.sharpness;
+  // Storage of the dynamic part: T_C and T_S with the blendshapes' per-vertex influences,
+  // against one map per blendshape; the neutral map is needed by both.
+  auto library_bytes = [&](double texels_n) {
+    return 2.0 * texels_n * synth::kSkinChannels * 4 + 2.0 * N * V * 4;
+  };
+  auto per_shape_bytes = [&](double texels_n) { return static_cast<double>(N) * texels_n * synth::kSkinChannels * 4; };
+  const double n1k = 1024.0 * 1024.0;
+  std::ostringstream js;
+  js << "{\"static_neutral\": " << stat.Json() << ", \"dynamic\": " << dynamic.Json()
+     << ", \"dynamic_in_sample\": " << in_sample.Json() << ", \"per_blendshape_maps\": " << per_shape.Json();
+  if (model) {
+    js << ", \"network_expressions\": " << network.Json() << ", \"dynamic_predicted\": " << predicted.Json()
+       << ", \"model\": " << JsonString(o.model);
+  }
+  js
+     << ", \"library_size_ratio\": " << JsonNumber(per_shape_bytes(static_cast<double>(n)) / library_bytes(static_cast<double>(n)))
+     << ", \"library_size_ratio_1024\": " << JsonNumber(per_shape_bytes(n1k) / library_bytes(n1k))
+     << ", \"library_mb\": " << JsonNumber(library_bytes(static_cast<double>(n)) / 1e6)
+     << ", \"per_blendshape_maps_mb\": " << JsonNumber(per_shape_bytes(static_cast<double>(n)) / 1e6)
+     << ", \"sharpness\": " << JsonNumber(b) << ", \"people\": " << people << ", \"expressions\": " << K
+     << ", \"blendshapes\": " << N << ", \"texture_size\": " << S << ", \"texels\": " << dynamic.texels
+     << ", \"region\": \"texels where the scored expression's true influence (eq. 10-11 on its noise-free "
+        "mesh) is non-zero\", \"peaks\": \"albedo and specular 1, displacement 1 mm\""
+     << ", \"dynamic_library\": \"eq. 12-13 from the other expressions' scans and true textures (leave one "
+        "out), eq. 14 with the true blendshapes' influences and the true weights\"}";
+  if (o.json) {
+    std::cout << js.str() << std::endl;
+  } else {
+    auto row = [](const char* name, const LayerErrors& e) {
+      std::printf("  %-30s %6.2f %6.2f %6.2f\n", name, LayerErrors::Psnr(e.albedo, e.texels),
+                  LayerErrors::Psnr(e.specular, e.texels), LayerErrors::Psnr(e.displacement, e.texels));
+    };
+    std::printf("PSNR (dB) against the true expression textures, %d held-out people x %d expressions, "
+                "where the expression moves the skin:\n  %-30s %6s %6s %6s\n",
+                people, K, "", "albedo", "spec", "disp");
+    row("static neutral", stat);
+    row("dynamic (eq. 14, leave one out)", dynamic);
+    row("dynamic (all expressions)", in_sample);
+    row("per-blendshape maps", per_shape);
+    if (model) {
+      row("network expression textures", network);
+      row("dynamic (eq. 14, predicted)", predicted);
+    }
+    std::printf("library %.2f MB against %.2f MB of per-blendshape maps (%.1fx; %.1fx at 1024^2)\n",
+                library_bytes(static_cast<double>(n)) / 1e6, per_shape_bytes(static_cast<double>(n)) / 1e6,
+                per_shape_bytes(static_cast<double>(n)) / library_bytes(static_cast<double>(n)),
+                per_shape_bytes(n1k) / library_bytes(n1k));
+  }
+  if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
+}
+
 void RunEvalTextures(const StageFlags& flags, AppState* state) {
   StageContext ctx{state->comm, {}, state->command_line};
   io::Config resolved;
@@ -214,7 +279,9 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
   const float b = o.sharpness;
   // Methods: the static neutral; eq. 14 with a library from the other K - 1 expressions
   // (leave one out) and from all K; per-blendshape maps blended linearly by the weights.
-  LayerErrors stat, dynamic, in_sample, per_shape, network, predicted;
+  TextureScores scores;
+  LayerErrors &stat = scores.stat, &dynamic = scores.dynamic, &in_sample = scores.in_sample,
+              &per_shape = scores.per_shape, &network = scores.network, &predicted = scores.predicted;
   std::unique_ptr<TextureModel> model;
   if (!o.model.empty()) {
     model = std::make_unique<TextureModel>(o.model);
@@ -309,55 +376,8 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
     FC_INFO("eval textures: person {} of {} held out", people, P);
   }
   if (people == 0) throw FileIOError(o.scans + ": no held-out people");
-  // Storage of the dynamic part: T_C and T_S with the blendshapes' per-vertex influences,
-  // against one map per blendshape; the neutral map is needed by both.
-  auto library_bytes = [&](double texels_n) {
-    return 2.0 * texels_n * synth::kSkinChannels * 4 + 2.0 * N * V * 4;
-  };
-  auto per_shape_bytes = [&](double texels_n) { return static_cast<double>(N) * texels_n * synth::kSkinChannels * 4; };
-  const double n1k = 1024.0 * 1024.0;
-  std::ostringstream js;
-  js << "{\"static_neutral\": " << stat.Json() << ", \"dynamic\": " << dynamic.Json()
-     << ", \"dynamic_in_sample\": " << in_sample.Json() << ", \"per_blendshape_maps\": " << per_shape.Json();
-  if (model) {
-    js << ", \"network_expressions\": " << network.Json() << ", \"dynamic_predicted\": " << predicted.Json()
-       << ", \"model\": " << JsonString(o.model);
-  }
-  js
-     << ", \"library_size_ratio\": " << JsonNumber(per_shape_bytes(static_cast<double>(n)) / library_bytes(static_cast<double>(n)))
-     << ", \"library_size_ratio_1024\": " << JsonNumber(per_shape_bytes(n1k) / library_bytes(n1k))
-     << ", \"library_mb\": " << JsonNumber(library_bytes(static_cast<double>(n)) / 1e6)
-     << ", \"per_blendshape_maps_mb\": " << JsonNumber(per_shape_bytes(static_cast<double>(n)) / 1e6)
-     << ", \"sharpness\": " << JsonNumber(b) << ", \"people\": " << people << ", \"expressions\": " << K
-     << ", \"blendshapes\": " << N << ", \"texture_size\": " << S << ", \"texels\": " << dynamic.texels
-     << ", \"region\": \"texels where the scored expression's true influence (eq. 10-11 on its noise-free "
-        "mesh) is non-zero\", \"peaks\": \"albedo and specular 1, displacement 1 mm\""
-     << ", \"dynamic_library\": \"eq. 12-13 from the other expressions' scans and true textures (leave one "
-        "out), eq. 14 with the true blendshapes' influences and the true weights\"}";
-  if (o.json) {
-    std::cout << js.str() << std::endl;
-  } else {
-    auto row = [](const char* name, const LayerErrors& e) {
-      std::printf("  %-30s %6.2f %6.2f %6.2f\n", name, LayerErrors::Psnr(e.albedo, e.texels),
-                  LayerErrors::Psnr(e.specular, e.texels), LayerErrors::Psnr(e.displacement, e.texels));
-    };
-    std::printf("PSNR (dB) against the true expression textures, %d held-out people x %d expressions, "
-                "where the expression moves the skin:\n  %-30s %6s %6s %6s\n",
-                people, K, "", "albedo", "spec", "disp");
-    row("static neutral", stat);
-    row("dynamic (eq. 14, leave one out)", dynamic);
-    row("dynamic (all expressions)", in_sample);
-    row("per-blendshape maps", per_shape);
-    if (model) {
-      row("network expression textures", network);
-      row("dynamic (eq. 14, predicted)", predicted);
-    }
-    std::printf("library %.2f MB against %.2f MB of per-blendshape maps (%.1fx; %.1fx at 1024^2)\n",
-                library_bytes(static_cast<double>(n)) / 1e6, per_shape_bytes(static_cast<double>(n)) / 1e6,
-                per_shape_bytes(static_cast<double>(n)) / library_bytes(static_cast<double>(n)),
-                per_shape_bytes(n1k) / library_bytes(n1k));
-  }
-  if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
+  scores.model = model != nullptr;
+  ReportEvalTextures(o, scores, people, K, N, V, S);
 }
 
 // [textures.library]
