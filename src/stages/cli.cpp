@@ -1,5 +1,6 @@
 #include "stages/cli.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -53,13 +54,33 @@ std::string NumberFlagToToml(const std::string& text, bool integral) {
   return std::string(buffer, printed.ptr);
 }
 
+namespace {
+
+// `valid` and the instance tables [STAGE-NAME] of valid stage tables that the job's [run] stages
+// names, so that one stage of a job with instances runs alone with --job.
+std::vector<std::string> WithRunInstances(const io::Config& config, std::vector<std::string> valid) {
+  if (!config.Has("run", "stages") || !config.IsArray("run", "stages")) return valid;
+  std::vector<std::string> named;
+  config.Get("run", "stages", &named);
+  const size_t stage_tables = valid.size();
+  for (const std::string& entry : named) {
+    const size_t dash = entry.find('-');
+    if (dash == std::string::npos) continue;
+    const auto end = valid.begin() + static_cast<std::ptrdiff_t>(stage_tables);
+    if (std::find(valid.begin(), end, entry.substr(0, dash)) != end) valid.push_back(entry);
+  }
+  return valid;
+}
+
+}  // namespace
+
 io::Config BuildConfig(const StageFlags& flags) {
   io::Config config = flags.job.empty() ? io::Config() : io::Config::Load(flags.job);
   for (const auto& assignment : flags.sets) config.SetAssignment(assignment);
   for (const auto& [key, text] : flags.overrides) {
     config.SetFromText(flags.table, key, text, FlagName(key));
   }
-  if (flags.job_tables) config.CheckTables(*flags.job_tables);
+  if (flags.job_tables) config.CheckTables(WithRunInstances(config, *flags.job_tables));
   return config;
 }
 

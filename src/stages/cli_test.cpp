@@ -142,6 +142,27 @@ TEST(Cli, RunStageInstancesReadTheirOwnTables) {
   EXPECT_NE(bad.output.find("unknown table [rig.demo-other]"), std::string::npos) << bad.output;
 }
 
+// One stage of a job with instance tables runs alone with --job: it reads its own table, and the
+// instances [run] names are not unknown tables (one it does not name still is).
+TEST(Cli, StageAloneAcceptsTheJobsInstanceTables) {
+  testing::TempDir dir;
+  const std::string job = dir.File("job.toml");
+  std::ofstream(job) << "[run]\nstages = ['rig.demo', 'rig.demo-other']\n"
+                     << "[rig.demo]\nout = '" << dir.File("a.h5") << "'\n"
+                     << "[rig.demo-other]\nout = '" << dir.File("b.h5") << "'\n";
+  Result r = RunFacecap("rig demo --job " + job);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(std::ifstream(dir.File("a.h5")).good());
+  EXPECT_FALSE(std::ifstream(dir.File("b.h5")).good());
+  const std::string stray = dir.File("stray.toml");
+  std::ofstream(stray) << "[run]\nstages = ['rig.demo']\n"
+                       << "[rig.demo]\nout = '" << dir.File("c.h5") << "'\n"
+                       << "[rig.demo-other]\nout = '" << dir.File("d.h5") << "'\n";
+  Result bad = RunFacecap("rig demo --job " + stray);
+  EXPECT_EQ(bad.code, kExitUsage) << bad.output;
+  EXPECT_NE(bad.output.find("unknown table [rig.demo-other]"), std::string::npos) << bad.output;
+}
+
 // A stage reruns when one of its HDF5 inputs was rewritten after its output (make's rule):
 // rerunning the rig makes the render sheet's source stale, and the next run redoes it.
 TEST(Cli, RunRedoesAStageWhoseInputIsNewerThanItsOutput) {

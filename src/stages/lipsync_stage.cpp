@@ -315,6 +315,7 @@ struct EvalLipsyncOptions {
   double closure_tolerance_seconds = 0.04;
   bool json = true;
   std::string out = "";
+  std::string gaps = "";
 
   template <class V>
   void Visit(V&& v) {
@@ -329,6 +330,9 @@ struct EvalLipsyncOptions {
       "a found closure counts when its centre is this close to a true one's");
     v("json", json, "print one JSON object (false: a table)");
     v("out", out, "also write the JSON object to this file (empty: none)");
+    v("gaps", gaps,
+      "also write every row's inner lip gap per frame, beside the truth's, to this CSV "
+      "(row,frame,source_index,seconds,truth_gap,gap; IOD) (empty: none)");
   }
   bool Check(std::string* why) const {
     if (tracks.empty()) { *why = "tracks names no track to score"; return false; }
@@ -347,6 +351,8 @@ struct LipsyncRow {
   int64_t frames = 0;
   double mouth_mae = 0., upper_mae = 0., pose_deg = 0.;
   lipsync::DetectionScore closures;
+  std::vector<int64_t> source_index;       // per frame of the track
+  std::vector<float> truth_gap, gap;       // inner lip gaps (IOD), the truth's and the row's
 };
 
 // What eval lipsync reads of the truth.
@@ -397,10 +403,11 @@ LipsyncRow ScoreLipsync(const EvalLipsyncOptions& o, const LipsyncTruth& truth,
   row.pose_deg /= std::max<int64_t>(1, row.frames);
   // Closures on the clip's clock: the truth rig at both rows' weights.
   const double fps = truth.fps;
-  const std::vector<lipsync::Closure> t = lipsync::FindClosures(
-      lipsync::InnerLipGaps(truth.rig, truth_rows), o.closure_gap, fps);
-  const std::vector<lipsync::Closure> e = lipsync::FindClosures(
-      lipsync::InnerLipGaps(truth.rig, estimate), o.closure_gap, fps);
+  row.source_index = track.source_index;
+  row.truth_gap = lipsync::InnerLipGaps(truth.rig, truth_rows);
+  row.gap = lipsync::InnerLipGaps(truth.rig, estimate);
+  const std::vector<lipsync::Closure> t = lipsync::FindClosures(row.truth_gap, o.closure_gap, fps);
+  const std::vector<lipsync::Closure> e = lipsync::FindClosures(row.gap, o.closure_gap, fps);
   row.closures = lipsync::MatchClosures(t, e, o.closure_tolerance_seconds);
   return row;
 }
@@ -473,6 +480,24 @@ void RunEvalLipsync(const StageFlags& flags, AppState* state) {
                 o.closure_gap, 1000. * o.closure_tolerance_seconds);
   }
   if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
+  if (!o.gaps.empty()) {
+    // A row name as a CSV field: quoted, inner quotes doubled.
+    const auto field = [](const std::string& text) {
+      std::string q = "\"";
+      for (char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+      return q + "\"";
+    };
+    std::ostringstream csv;
+    csv << "row,frame,source_index,seconds,truth_gap,gap\n";
+    for (const LipsyncRow& r : rows) {
+      for (size_t f = 0; f < r.gap.size(); ++f) {
+        csv << field(r.name) << ',' << f << ',' << r.source_index[f] << ','
+            << JsonNumber(static_cast<double>(r.source_index[f]) / truth.fps) << ',' << JsonNumber(r.truth_gap[f])
+            << ',' << JsonNumber(r.gap[f]) << '\n';
+      }
+    }
+    io::WriteFileAtomically(o.gaps, csv.str());
+  }
 }
 
 }  // namespace
@@ -505,7 +530,7 @@ void RegisterLipsync(CLI::App* app, AppState* state) {
       "Tracks of a talking clip against its truth: mouth-control and upper-face-control MAE, "
       "pose error, and lip closures (the truth rig's inner lips meeting) found within a "
       "tolerance (F1), beside the neutral mouth",
-      PathKeys{{"truth", "tracks"}, {{"out", OutputKind::kText}}},
+      PathKeys{{"truth", "tracks"}, {{"out", OutputKind::kText}, {"gaps", OutputKind::kCsv}}},
       RunEvalLipsync);
 }
 

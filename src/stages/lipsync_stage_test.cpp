@@ -6,6 +6,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
 
 #include <gtest/gtest.h>
 
@@ -152,7 +154,8 @@ TEST_F(Lipsync, EvalScoresMouthUpperFaceAndClosures) {
   ASSERT_EQ(r.code, 0) << r.output;
   const std::string json = File("lipsync.json");
   r = RunFacecap("eval lipsync --truth " + File("talk.h5") + " --tracks " + File("video_track.h5") +
-                 "," + File("aligned.h5") + " --names video,blend --out " + json);
+                 "," + File("aligned.h5") + " --names video,blend --out " + json + " --gaps " +
+                 File("gaps.csv"));
   ASSERT_EQ(r.code, 0) << r.output;
   std::ifstream in(json);
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -170,6 +173,34 @@ TEST_F(Lipsync, EvalScoresMouthUpperFaceAndClosures) {
   EXPECT_LT(value("blend", "pose_err_deg"), 0.05);  // the truth's own poses (float rounding)
   EXPECT_GE(value("blend", "closure_f1"), 0.99);
   EXPECT_LT(value("video", "closure_f1"), 0.5);
+  // The gaps CSV: a line per frame of each row, the truth's gap the same in every row, and the
+  // blend's gaps nearer the truth's than the video solve's.
+  std::ifstream csv(File("gaps.csv"));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "row,frame,source_index,seconds,truth_gap,gap");
+  std::map<std::string, std::vector<std::pair<double, double>>> gaps;  // row -> (truth, gap)
+  while (std::getline(csv, line)) {
+    const size_t close = line.find("\",");
+    ASSERT_NE(close, std::string::npos) << line;
+    std::vector<double> cells;
+    std::stringstream rest(line.substr(close + 2));
+    for (std::string cell; std::getline(rest, cell, ',');) cells.push_back(std::stod(cell));
+    ASSERT_EQ(cells.size(), 5u) << line;
+    gaps[line.substr(1, close - 1)].emplace_back(cells[3], cells[4]);
+  }
+  ASSERT_EQ(gaps.size(), 3u);
+  const auto& video = gaps["video"];
+  const auto& blend = gaps["blend"];
+  ASSERT_EQ(video.size(), blend.size());
+  ASSERT_GT(video.size(), 20u);
+  double video_error = 0., blend_error = 0.;
+  for (size_t f = 0; f < video.size(); ++f) {
+    EXPECT_EQ(video[f].first, blend[f].first) << f;
+    video_error += std::abs(video[f].second - video[f].first);
+    blend_error += std::abs(blend[f].second - blend[f].first);
+  }
+  EXPECT_LT(blend_error, 0.5 * video_error);
 }
 
 TEST_F(Lipsync, TrackSolvesTheMouthOfAFrontalViewOnly) {
