@@ -1,8 +1,9 @@
 #!/usr/bin/python3
-"""Dynamic textures (paper 001 eq. 10-13) written out directly in numpy, against what
-`facecap eval textures --maps MAPS` wrote, and a contact sheet of one held-out person's
-expressions with the true, dynamic (eq. 14), predicted (eq. 14 with the networks' library, when
-MAPS has them), static and per-blendshape textures.
+"""Dynamic textures (paper 001 eq. 10-13, and the strain texture's reference influences)
+written out directly in numpy, against what `facecap eval textures --maps MAPS` wrote, and a
+contact sheet of one held-out person's expressions with the true, dynamic (the strain texture),
+eq. 14 as printed, predicted (the strain texture of the networks' library, when MAPS has them),
+static and per-blendshape textures.
 
     /usr/bin/python3 analysis/dynamic_textures.py SCANS MAPS [--sheet SHEET.png]
 
@@ -64,10 +65,14 @@ def main():
         w /= w.sum(axis=0, keepdims=True)                            # eq. 12
         blended = (w[..., None] * truth).sum(axis=0)                 # eq. 13
         worst_12_13 = max(worst_12_13, np.abs(blended - maps["library/" + name][:]).max())
+        # The reference influence: eq. 13 applied to the influences themselves.
+        reference = (w * influence[..., kind]).sum(axis=0)
+        worst_12_13 = max(worst_12_13, np.abs(reference - maps["library/reference"][..., kind]).max())
 
     print(f"person {person}, {len(expressions)} expressions, sharpness {b:g} per cm")
     print(f"eq. 10-11: largest difference {err_10_11:.3g} cm (largest influence {scale_10_11:.3g} cm)")
-    print(f"eq. 12-13: largest difference {worst_12_13:.3g} (largest texture value {scale_12_13:.3g})")
+    print(f"eq. 12-13 and the reference influences: largest difference {worst_12_13:.3g} "
+          f"(largest texture value {scale_12_13:.3g})")
     ok = err_10_11 <= 1e-6 * max(scale_10_11, 1.0) and worst_12_13 <= 1e-6 * max(scale_12_13, 1.0)
 
     if args.sheet:
@@ -81,11 +86,12 @@ def sheet(scans, maps, path):
     import matplotlib.pyplot as plt
     names = [n.decode() if isinstance(n, bytes) else n for n in scans["scans/facs/names"][:]]
     truth = maps["textures/truth"][:]
-    rows = [("truth", truth), ("dynamic (eq. 14)", maps["textures/dynamic"][:]),
+    rows = [("truth", truth), ("dynamic (strain)", maps["textures/dynamic"][:]),
+            ("eq. 14 as printed", maps["textures/as_printed"][:]),
             ("static neutral", np.broadcast_to(maps["library/neutral"][:], truth.shape)),
             ("per-blendshape maps", maps["textures/per_blendshape"][:])]
     if "textures/predicted" in maps:
-        rows.insert(2, ("dynamic (eq. 14, predicted)", maps["textures/predicted"][:]))
+        rows.insert(3, ("dynamic (strain, predicted)", maps["textures/predicted"][:]))
     neutral = maps["library/neutral"][:]
     # The expressions that change the displacement most.
     change = np.abs(truth[..., 4] - neutral[None, ..., 4]).sum(axis=(1, 2))
@@ -106,8 +112,9 @@ def sheet(scans, maps, path):
     for a in axes.flat:
         a.set_xticks([])
         a.set_yticks([])
-    fig.suptitle("held-out person: true, dynamic (eq. 14, library of the other expressions),\ndynamic from the "
-                 "networks' predicted textures, static and per-blendshape textures", fontsize=10)
+    fig.suptitle("held-out person: true, dynamic (strain texture, library of the other expressions), eq. 14 as "
+                 "printed,\ndynamic from the networks' predicted textures, static and per-blendshape textures",
+                 fontsize=10)
     fig.subplots_adjust(top=0.93)
     fig.tight_layout()
     fig.savefig(path, dpi=80)

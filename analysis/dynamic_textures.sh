@@ -3,9 +3,9 @@
 # (60 people, 12 held out), the expression texture networks trained on its 48 training people
 # (`textures train`), `eval textures` on the held-out people at several sharpnesses of eq. 12's
 # softmax (1 is the paper's equation with influences in cm) with the networks' rows at the
-# default, eq. 10-13 checked against a direct numpy implementation, a contact sheet, and the
-# runtime of eq. 14 at 1024 x 1024 on one core beside the dense formula and per-blendshape
-# maps.
+# default (the strain texture beside eq. 14 as printed), eq. 10-13 checked against a direct
+# numpy implementation, a contact sheet, and the strain texture's runtime at 1024 x 1024 on one
+# core beside eq. 14 as printed (sparse and dense) and per-blendshape maps.
 #
 #   analysis/dynamic_textures.sh [BUILD_DIR]
 #
@@ -32,7 +32,7 @@ for b in 1 30 100 300; do
 done
 /usr/bin/python3 "${source_dir}/analysis/dynamic_textures.py" "${work}/scans.h5" "${work}/maps.h5" \
   --sheet "${work}/sheet.png"
-log "eq. 14 at 1024 x 1024, one core"
+log "runtime textures at 1024 x 1024, one core"
 "${build_dir}/facecap_bench_dynamic_texture" --size 1024 --frames 10 | tee "${work}/bench_all.txt"
 "${build_dir}/facecap_bench_dynamic_texture" --size 1024 --frames 10 --active 12 | tee "${work}/bench_12.txt"
 /usr/bin/python3 - "${work}" <<'PY'
@@ -40,16 +40,18 @@ import json, sys
 work = sys.argv[1]
 print("\nPSNR (dB) against the true expression textures where the expression moves the skin "
       "(held-out people; albedo / specular / displacement):\n")
-print("| sharpness b (per cm) | static neutral | dynamic, eq. 14 (leave one out) | per-blendshape maps |")
-print("| --- | --- | --- | --- |")
+print("| sharpness b (per cm) | static neutral | dynamic, strain texture (leave one out) | eq. 14 as printed "
+      "(leave one out) | per-blendshape maps |")
+print("| --- | --- | --- | --- | --- |")
 for b in (1, 30, 100, 300):
     d = json.load(open(f"{work}/eval_b{b}.json"))
     cell = lambda k: " / ".join(f"{d[k][x]:.2f}" for x in ("albedo_db", "specular_db", "displacement_db"))
-    print(f"| {b} | {cell('static_neutral')} | {cell('dynamic')} | {cell('per_blendshape_maps')} |")
+    print(f"| {b} | {cell('static_neutral')} | {cell('dynamic')} | {cell('eq14_as_printed')} | "
+          f"{cell('per_blendshape_maps')} |")
 d = json.load(open(f"{work}/eval_b100.json"))
 print("\nThe networks (sharpness 100): their expression textures of the held-out people's expression scans, and "
-      "eq. 14 with the library made from them (eq. 12-13), against the truth:\n")
-print("| static neutral | network expression textures | dynamic, eq. 14 (predicted library) | dynamic, eq. 14 (true textures, leave one out) |")
+      "the strain texture of the library fitted to them, against the truth:\n")
+print("| static neutral | network expression textures | dynamic (predicted library) | dynamic (true textures, leave one out) |")
 print("| --- | --- | --- | --- |")
 print(f"| {cell('static_neutral')} | {cell('network_expressions')} | {cell('dynamic_predicted')} | {cell('dynamic')} |")
 print(f"\nlibrary {d['library_mb']:.2f} MB against {d['per_blendshape_maps_mb']:.2f} MB of per-blendshape maps "

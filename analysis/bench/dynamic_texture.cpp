@@ -1,9 +1,10 @@
-// Runtime dynamic textures (paper 001 eq. 14) at 1024 x 1024 on one core: a frame's albedo,
-// specular and displacement from the library of the demo head (its 55 template shapes'
-// influence maps, compress and stretch maps from the 24 FACS expressions' skin maps), in ms,
-// beside two baselines timed in the same run on the same weights: eq. 14 with dense
-// normalized influence maps, and the per-blendshape maps blended linearly (T_N + sum_i
-// alpha_i (T_i - T_N), only the active shapes read).
+// Runtime dynamic textures (paper 001 Sec. 5.3) at 1024 x 1024 on one core: a frame's albedo,
+// specular and displacement from the library of the demo head (compress and stretch maps from
+// the 24 FACS expressions' skin maps), in ms. The strain texture facecap uses
+// (textures/compress_stretch.h: the frame's mesh from the 55 template shapes, its eq. 10-11
+// influence map, the blend) beside, on the same weights: eq. 14 as printed with sparse and with
+// dense normalized influence maps of the shapes, and the per-blendshape maps blended linearly
+// (T_N + sum_i alpha_i (T_i - T_N), only the active shapes read).
 //
 //   facecap_bench_dynamic_texture [--size N] [--frames F] [--active A]
 //
@@ -76,6 +77,9 @@ int Run(int size, int frames, int active) {
   const int C = synth::kSkinChannels;
   const auto maps = textures::ExtractCompressStretch(pointers(expression_influence), pointers(expression_maps), n, C, b);
   const textures::DynamicTexture dyn(n, C, neutral, maps, pointers(shape_influence), b);
+  const textures::StrainTexture strain(
+      n, C, neutral, textures::FitCompressStretch(pointers(expression_influence), pointers(expression_maps), neutral,
+                                                  n, C, b));
   const auto dense_c = textures::NormalizeInfluence(pointers(shape_influence), n, 2, 0, b);
   const auto dense_s = textures::NormalizeInfluence(pointers(shape_influence), n, 2, 1, b);
   std::printf("library of %d x %d texels, %d shapes, %d vertices built in %.1f s; %zu sparse influence "
@@ -92,10 +96,14 @@ int Run(int size, int frames, int active) {
     }
   }
   std::vector<float> out(n * C), check(n * C);
-  double sparse_ms = 0, dense_ms = 0, linear_ms = 0, worst = 0;
+  double strain_ms = 0, sparse_ms = 0, dense_ms = 0, linear_ms = 0, worst = 0;
   std::vector<float> wc(n), ws(n);
   for (const auto& w : weights) {
     auto t = std::chrono::steady_clock::now();
+    const Eigen::VectorXf column = base + shapes.deltas * Eigen::Map<const Eigen::VectorXf>(w.data(), N);
+    strain.Evaluate(influence(mesh(column)).data(), out.data());
+    strain_ms += Ms(t);
+    t = std::chrono::steady_clock::now();
     dyn.Evaluate(w.data(), out.data());
     sparse_ms += Ms(t);
     t = std::chrono::steady_clock::now();
@@ -125,12 +133,14 @@ int Run(int size, int frames, int active) {
     }
     linear_ms += Ms(t);
   }
-  std::printf("eq. 14, sparse influences: %.1f ms per frame (%d frames, %s active shapes)\n", sparse_ms / frames,
-              frames, active > 0 ? std::to_string(active).c_str() : "all");
-  std::printf("eq. 14, dense influences:  %.1f ms per frame (%.2fx the sparse time; largest difference %.2g)\n",
-              dense_ms / frames, dense_ms / sparse_ms, worst);
-  std::printf("per-blendshape maps:       %.1f ms per frame (%.2fx the sparse time)\n", linear_ms / frames,
-              linear_ms / sparse_ms);
+  std::printf("strain texture (mesh, influence, blend): %.1f ms per frame (%d frames, %s active shapes)\n",
+              strain_ms / frames, frames, active > 0 ? std::to_string(active).c_str() : "all");
+  std::printf("eq. 14 as printed, sparse influences:   %.1f ms per frame (%.2fx the strain texture's time)\n",
+              sparse_ms / frames, sparse_ms / strain_ms);
+  std::printf("eq. 14 as printed, dense influences:    %.1f ms per frame (%.2fx; largest difference from sparse "
+              "%.2g)\n", dense_ms / frames, dense_ms / strain_ms, worst);
+  std::printf("per-blendshape maps:                    %.1f ms per frame (%.2fx the strain texture's time)\n",
+              linear_ms / frames, linear_ms / strain_ms);
   return 0;
 }
 

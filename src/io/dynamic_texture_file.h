@@ -3,11 +3,15 @@
 // of a textured rig sees the static texture), and
 //   /dynamic_texture/neutral, compress, stretch [S, S, 5]   T_N, T_C, T_S: albedo R, G, B
 //        (linear), specular, displacement (mm), in the rig's UV layout, row 0 at v = 1
+//   /dynamic_texture/reference [S, S, 2]   R_C, R_S: the compress and stretch influence (cm)
+//        that T_C and T_S stand for (textures/compress_stretch.h)
 //   /dynamic_texture/influence [N, V, 2]   per rig shape and vertex, eq. 10-11's compress and
-//        stretch influence (cm) of the shape at weight 1 against the rig's neutral
+//        stretch influence (cm) of the shape at weight 1 against the rig's neutral (the input
+//        of eq. 14 as the paper prints it)
 //   attribute sharpness_per_cm on /dynamic_texture/compress: b of eq. 12 and 14
-// `render` draws such a rig with eq. 14's albedo at its weights; `export textures` writes a
-// tracked take's maps per frame. The scan database's skin maps use the same five channels.
+// `render` draws such a rig with the strain texture's albedo at its weights; `export textures`
+// writes a tracked take's maps per frame. The scan database's skin maps use the same five
+// channels.
 #ifndef FACECAP_IO_DYNAMIC_TEXTURE_FILE_H_
 #define FACECAP_IO_DYNAMIC_TEXTURE_FILE_H_
 
@@ -29,6 +33,7 @@ struct DynamicTextureLibrary {
   std::vector<float> neutral, compress, stretch;  // S x S x 5 each
   int num_shapes = 0, num_vertices = 0;           // N, V
   std::vector<float> influence;    // N x V x 2
+  std::vector<float> reference;    // S x S x 2
 };
 
 // Writes the /dynamic_texture group and /texture/albedo (the rig itself is written by the

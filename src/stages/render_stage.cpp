@@ -42,7 +42,7 @@ struct RenderStageOptions {
   float roll_deg = 0.f;                  // head roll
   std::vector<std::string> weights;      // shape weights as name=value
   bool sheet = false;                    // contact sheet of neutral + expressions
-  bool dynamic_texture = true;           // a library's texture follows the weights (eq. 14)
+  bool dynamic_texture = true;           // a library's texture follows the weights (strain texture)
   std::string mesh_out;                  // posed mesh (.obj, .glb, .gltf); empty: none
   int threads = 0;                       // OpenMP threads (0: all)
 
@@ -50,7 +50,7 @@ struct RenderStageOptions {
   void Visit(V&& v) {
     v("rig", rig, "rig file (HDF5) from `facecap rig demo` or `facecap rig import`, or a textured rig "
                   "(appearance gather's output), drawn with its texture, or a dynamic texture library "
-                  "(textures library), drawn with the texture of its weights (eq. 14)");
+                  "(textures library), drawn with the texture of its weights (the strain texture, paper 001 Sec. 5.3)");
     v("out", out, "output image; the extension picks the format (.png, .jpg, .exr, .tif)");
     v("mode", mode, "what to draw: segmentation, shaded, uv or depth");
     v("size", size, "image width and height in pixels");
@@ -62,7 +62,7 @@ struct RenderStageOptions {
     v("sheet", sheet, "write a contact sheet: the neutral and expressions, segmentation and "
                       "shaded side by side");
     v("dynamic_texture", dynamic_texture,
-      "a dynamic texture library is drawn with the albedo of each render's weights (eq. 14); false: with its "
+      "a dynamic texture library is drawn with the albedo of each render's weights (the strain texture); false: with its "
       "static neutral albedo, to compare the two");
     v("mesh_out", mesh_out,
       "also write the posed mesh (the weights' expression rotated by pitch, yaw and roll about "
@@ -268,9 +268,9 @@ void RunRender(const StageFlags& flags, AppState* state) {
   if (!ctx.comm.IsMainRank()) return;
   const rig::Rig rig = io::ReadRigFile(o.rig);
   Renderer renderer(rig, io::ReadRigTexture(o.rig), o.threads);
-  // A dynamic texture library draws each render with eq. 14's albedo at its weights.
+  // A dynamic texture library draws each render with the strain texture's albedo at its weights.
   int dynamic_size = 0;
-  const std::unique_ptr<textures::DynamicTexture> dynamic =
+  const std::unique_ptr<textures::RigStrainTexture> dynamic =
       o.dynamic_texture ? ReadRigDynamicTexture(o.rig, rig, &dynamic_size) : nullptr;
   auto pose = [&](const Framing& framing, const Eigen::VectorXf& w) {
     if (dynamic) {

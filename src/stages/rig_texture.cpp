@@ -25,14 +25,14 @@ ImageF GenericSkinTexture(const rig::Rig& rig) {
   return synth::MakeSkinTexture(rig, synth::DrawPersonColors(1), 1, synth::SkinTextureOptions());
 }
 
-std::unique_ptr<textures::DynamicTexture> ReadRigDynamicTexture(const std::string& path, const rig::Rig& rig,
-                                                                int* size) {
+std::unique_ptr<textures::RigStrainTexture> ReadRigDynamicTexture(const std::string& path, const rig::Rig& rig,
+                                                                  int* size) {
   if (!io::HasDynamicTexture(path)) return nullptr;
   io::DynamicTextureLibrary library = io::ReadDynamicTextureLibrary(path, rig.NumShapes(), rig.NumVertices());
   *size = library.size;
-  return std::make_unique<textures::DynamicTexture>(textures::DynamicTextureForRig(
+  return std::make_unique<textures::RigStrainTexture>(
       rig, library.size, io::kSkinMapChannels, std::move(library.neutral),
-      textures::CompressStretchMaps{library.compress, library.stretch}, library.influence, library.sharpness));
+      textures::CompressStretchMaps{library.compress, library.stretch, library.reference});
 }
 
 io::DynamicTextureLibrary MakeDynamicTextureLibrary(const rig::Rig& rig, const rig::Vertices& neutral,
@@ -62,9 +62,11 @@ io::DynamicTextureLibrary MakeDynamicTextureLibrary(const rig::Rig& rig, const r
     influence_ptrs.push_back(influence[k].data());
     map_ptrs.push_back(expression_maps[k].data());
   }
-  const auto cs = textures::ExtractCompressStretch(influence_ptrs, map_ptrs, n, io::kSkinMapChannels, sharpness);
+  const auto cs = textures::FitCompressStretch(influence_ptrs, map_ptrs, lib.neutral, n, io::kSkinMapChannels,
+                                               sharpness);
   lib.compress = cs.compress;
   lib.stretch = cs.stretch;
+  lib.reference = cs.reference;
   // Eq. 10-11 of each rig shape at weight 1 (jaw rotation included) against the rig's neutral.
   lib.num_shapes = N;
   lib.num_vertices = V;

@@ -23,17 +23,17 @@ Image8 ReadRigTextureSrgb(const std::string& rig_path);
 // brows, lash lines), linear RGB. InvalidInputError when the rig has no UVs or 68 landmarks.
 ImageF GenericSkinTexture(const rig::Rig& rig);
 
-// Eq. 14 of the dynamic texture library that the rig file at `path` carries
-// (io/dynamic_texture_file.h) for `rig`, with the maps' size in *size; null when the file
-// carries none. FileIOError for a malformed library.
-std::unique_ptr<textures::DynamicTexture> ReadRigDynamicTexture(const std::string& path, const rig::Rig& rig,
-                                                                int* size);
+// The strain texture (textures/compress_stretch.h) of the dynamic texture library that the rig
+// file at `path` carries (io/dynamic_texture_file.h) for `rig`, with the maps' size in *size;
+// null when the file carries none. FileIOError for a malformed library.
+std::unique_ptr<textures::RigStrainTexture> ReadRigDynamicTexture(const std::string& path, const rig::Rig& rig,
+                                                                  int* size);
 
 // A person's library (paper 001 eq. 10-13): the compress and stretch maps of the
 // `expressions` meshes' skin maps (S x S x 5 each) under eq. 10-11's influences against
-// `neutral` (the person's neutral mesh), and the influence of each of `rig`'s shapes at
-// weight 1 against the rig's neutral (what eq. 14 blends at runtime). The rig has the
-// expressions' topology and the maps' UV layout.
+// `neutral` (the person's neutral mesh), fitted for the strain texture with their reference
+// influences, and the influence of each of `rig`'s shapes at weight 1 against the rig's
+// neutral (eq. 14 as printed). The rig has the expressions' topology and the maps' UV layout.
 io::DynamicTextureLibrary MakeDynamicTextureLibrary(const rig::Rig& rig, const rig::Vertices& neutral,
                                                     const std::vector<rig::Vertices>& expressions,
                                                     std::vector<float> neutral_maps,

@@ -353,8 +353,8 @@ void RegisterTexturesNetworks(CLI::App* app, AppState* state) {
   AddStage<TexturesInferOptions>(
       textures, state, "infer", "textures.infer", "textures infer",
       "A person's dynamic texture library from their neutral skin maps and rig alone: the networks predict the "
-      "textures of the model's FACS expressions of the rig, and eq. 12-13 blend them into compress and stretch maps "
-      "(a textured rig that render draws and export textures plays)",
+      "textures of the model's FACS expressions of the rig, and compress and stretch maps are fitted to them for the "
+      "strain texture (a textured rig that render draws and export textures plays)",
       PathKeys{{"model", "rig", "scans"}, {{"out", OutputKind::kHdf5}}},
       RunTexturesInfer);
 }

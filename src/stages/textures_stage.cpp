@@ -48,14 +48,15 @@ struct EvalTexturesOptions {
     v("json", json, "print one JSON object (false: a readable table)");
     v("out", out, "also write the JSON object to this file (empty: none)");
     v("maps", maps, "HDF5 file for the first held-out person's maps: the library (/library/neutral, "
-                    "compress, stretch [S, S, 5]; /library/shape_influence [N, V, 2]), the expressions' "
+                    "compress, stretch [S, S, 5] of eq. 12-13, reference [S, S, 2], fitted_compress, "
+                    "fitted_stretch; /library/shape_influence [N, V, 2]), the expressions' "
                     "influences (/influence/vertex [K, V, 2], /influence/texel [K, S, S, 2]; R compress, "
-                    "G stretch) and textures (/textures/truth; /textures/dynamic, eq. 14 with the library of the other "
-                    "expressions; /textures/per_blendshape [K, S, S, 5]; with a model /textures/network, the networks' "
-                    "expression textures, and /textures/predicted, eq. 14 with the library made from them) "
-                    "(empty: none)");
+                    "G stretch) and textures (/textures/truth; /textures/dynamic, the strain texture of the library of "
+                    "the other expressions; /textures/as_printed, eq. 14 as printed; /textures/per_blendshape "
+                    "[K, S, S, 5]; with a model /textures/network, the networks' expression textures, and "
+                    "/textures/predicted, the strain texture of the library made from them) (empty: none)");
     v("model", model, "texture network model (textures train): adds the rows of the networks' expression textures "
-                      "and of eq. 14 with the library made from them (empty: none)");
+                      "and of the strain texture of the library made from them (empty: none)");
   }
   bool Check(std::string* why) const {
     if (scans.empty()) { *why = "scans must name a file"; return false; }
@@ -151,20 +152,30 @@ std::vector<float> VertexInfluenceArray(const std::vector<textures::VertexInflue
   return out;
 }
 
+// What eval textures keeps of one person's expressions (K x S x S x 5 each): the strain
+// texture, eq. 14 as printed, the per-blendshape maps and, with a model, the networks' textures
+// and the strain texture of their library.
+struct KeptMaps {
+  std::vector<float> dynamic, printed, linear, network, predicted;
+};
+
 void WritePersonMaps(const StageContext& ctx, const io::Config& resolved, const std::string& path, int person, int S,
-                     const TexturedPerson& p, const textures::CompressStretchMaps& library,
+                     const TexturedPerson& p, const textures::CompressStretchMaps& eq13,
+                     const textures::CompressStretchMaps& fitted,
                      const std::vector<textures::VertexInfluence>& scan_vertex,
                      const std::vector<std::vector<float>>& scan_texel,
-                     const std::vector<textures::VertexInfluence>& shape_vertex, const std::vector<float>& dynamic,
-                     const std::vector<float>& linear, const std::vector<float>& network,
-                     const std::vector<float>& predicted, float sharpness) {
+                     const std::vector<textures::VertexInfluence>& shape_vertex, const KeptMaps& kept,
+                     float sharpness) {
   const int64_t K = static_cast<int64_t>(scan_vertex.size()), N = static_cast<int64_t>(shape_vertex.size());
   const int64_t V = p.neutral.rows(), C = synth::kSkinChannels;
   io::H5File f = io::H5File::CreateAtomic(path);
   f.WriteProvenance(MakeProvenance(ctx, "eval textures", resolved));
   f.Write<float>("/library/neutral", {S, S, C}, p.neutral_maps.data());
-  f.Write<float>("/library/compress", {S, S, C}, library.compress.data());
-  f.Write<float>("/library/stretch", {S, S, C}, library.stretch.data());
+  f.Write<float>("/library/compress", {S, S, C}, eq13.compress.data());
+  f.Write<float>("/library/stretch", {S, S, C}, eq13.stretch.data());
+  f.Write<float>("/library/reference", {S, S, 2}, eq13.reference.data());
+  f.Write<float>("/library/fitted_compress", {S, S, C}, fitted.compress.data());
+  f.Write<float>("/library/fitted_stretch", {S, S, C}, fitted.stretch.data());
   f.Write<float>("/library/shape_influence", {N, V, 2}, VertexInfluenceArray(shape_vertex).data());
   f.SetAttribute("/library/compress", "sharpness_per_cm", static_cast<double>(sharpness));
   f.SetAttribute("/library/compress", "person", static_cast<int64_t>(person));
@@ -175,11 +186,12 @@ void WritePersonMaps(const StageContext& ctx, const io::Config& resolved, const 
   std::vector<float> truth;
   for (const auto& m : p.expression_maps) truth.insert(truth.end(), m.begin(), m.end());
   f.Write<float>("/textures/truth", {K, S, S, C}, truth.data());
-  f.Write<float>("/textures/dynamic", {K, S, S, C}, dynamic.data());
-  f.Write<float>("/textures/per_blendshape", {K, S, S, C}, linear.data());
-  if (!network.empty()) {
-    f.Write<float>("/textures/network", {K, S, S, C}, network.data());
-    f.Write<float>("/textures/predicted", {K, S, S, C}, predicted.data());
+  f.Write<float>("/textures/dynamic", {K, S, S, C}, kept.dynamic.data());
+  f.Write<float>("/textures/as_printed", {K, S, S, C}, kept.printed.data());
+  f.Write<float>("/textures/per_blendshape", {K, S, S, C}, kept.linear.data());
+  if (!kept.network.empty()) {
+    f.Write<float>("/textures/network", {K, S, S, C}, kept.network.data());
+    f.Write<float>("/textures/predicted", {K, S, S, C}, kept.predicted.data());
   }
   for (const char* name : {"/library/neutral", "/textures/truth", "/textures/dynamic"}) {
     f.SetAttribute(name, "channels", std::string(io::kSkinMapChannelNames));
@@ -189,27 +201,26 @@ void WritePersonMaps(const StageContext& ctx, const io::Config& resolved, const 
 
 // eval textures' error sums over the held-out people, one per method.
 struct TextureScores {
-  LayerErrors stat, dynamic, in_sample, per_shape, network, predicted;
+  LayerErrors stat, dynamic, as_printed, in_sample, per_shape, network, predicted;
   bool model = false;  // network and predicted were scored
 };
 
 // eval textures' JSON (stdout with --json, and --out) or table, with the storage comparison.
-void ReportEvalTextures(const EvalTexturesOptions& o, const TextureScores& scores, int people, int K, int N, int V,
-                        int S) {
-  const LayerErrors &stat = scores.stat, &dynamic = scores.dynamic, &in_sample = scores.in_sample,
-                    &per_shape = scores.per_shape, &network = scores.network, &predicted = scores.predicted;
+void ReportEvalTextures(const EvalTexturesOptions& o, const TextureScores& scores, int people, int K, int N, int S) {
+  const LayerErrors &stat = scores.stat, &dynamic = scores.dynamic, &as_printed = scores.as_printed,
+                    &in_sample = scores.in_sample, &per_shape = scores.per_shape, &network = scores.network,
+                    &predicted = scores.predicted;
   const bool model = scores.model;
   const size_t n = static_cast<size_t>(S) * S;
   const float b = o.sharpness;
-  // Storage of the dynamic part: T_C and T_S with the blendshapes' per-vertex influences,
-  // against one map per blendshape; the neutral map is needed by both.
-  auto library_bytes = [&](double texels_n) {
-    return 2.0 * texels_n * synth::kSkinChannels * 4 + 2.0 * N * V * 4;
-  };
+  // Storage of the dynamic part: T_C and T_S with their reference influences (the rig gives the
+  // runtime mesh), against one map per blendshape; the neutral map is needed by both.
+  auto library_bytes = [&](double texels_n) { return texels_n * (2.0 * synth::kSkinChannels + 2.0) * 4; };
   auto per_shape_bytes = [&](double texels_n) { return static_cast<double>(N) * texels_n * synth::kSkinChannels * 4; };
   const double n1k = 1024.0 * 1024.0;
   std::ostringstream js;
   js << "{\"static_neutral\": " << stat.Json() << ", \"dynamic\": " << dynamic.Json()
+     << ", \"eq14_as_printed\": " << as_printed.Json()
      << ", \"dynamic_in_sample\": " << in_sample.Json() << ", \"per_blendshape_maps\": " << per_shape.Json();
   if (model) {
     js << ", \"network_expressions\": " << network.Json() << ", \"dynamic_predicted\": " << predicted.Json()
@@ -224,25 +235,27 @@ void ReportEvalTextures(const EvalTexturesOptions& o, const TextureScores& score
      << ", \"blendshapes\": " << N << ", \"texture_size\": " << S << ", \"texels\": " << dynamic.texels
      << ", \"region\": \"texels where the scored expression's true influence (eq. 10-11 on its noise-free "
         "mesh) is non-zero\", \"peaks\": \"albedo and specular 1, displacement 1 mm\""
-     << ", \"dynamic_library\": \"eq. 12-13 from the other expressions' scans and true textures (leave one "
-        "out), eq. 14 with the true blendshapes' influences and the true weights\"}";
+     << ", \"dynamic_library\": \"compress and stretch maps fitted to the other expressions' scans and true "
+        "textures (leave one out), the strain texture of the true blendshapes' mesh at the true weights; eq. 14 "
+        "as printed: eq. 12-13's maps of the same expressions, the true blendshapes' influences\"}";
   if (o.json) {
     std::cout << js.str() << std::endl;
   } else {
     auto row = [](const char* name, const LayerErrors& e) {
-      std::printf("  %-30s %6.2f %6.2f %6.2f\n", name, LayerErrors::Psnr(e.albedo, e.texels),
+      std::printf("  %-34s %6.2f %6.2f %6.2f\n", name, LayerErrors::Psnr(e.albedo, e.texels),
                   LayerErrors::Psnr(e.specular, e.texels), LayerErrors::Psnr(e.displacement, e.texels));
     };
     std::printf("PSNR (dB) against the true expression textures, %d held-out people x %d expressions, "
-                "where the expression moves the skin:\n  %-30s %6s %6s %6s\n",
+                "where the expression moves the skin:\n  %-34s %6s %6s %6s\n",
                 people, K, "", "albedo", "spec", "disp");
     row("static neutral", stat);
-    row("dynamic (eq. 14, leave one out)", dynamic);
-    row("dynamic (all expressions)", in_sample);
+    row("dynamic (strain, leave one out)", dynamic);
+    row("eq. 14 as printed (leave one out)", as_printed);
+    row("dynamic (strain, all expressions)", in_sample);
     row("per-blendshape maps", per_shape);
     if (model) {
       row("network expression textures", network);
-      row("dynamic (eq. 14, predicted)", predicted);
+      row("dynamic (strain, predicted)", predicted);
     }
     std::printf("library %.2f MB against %.2f MB of per-blendshape maps (%.1fx; %.1fx at 1024^2)\n",
                 library_bytes(static_cast<double>(n)) / 1e6, per_shape_bytes(static_cast<double>(n)) / 1e6,
@@ -277,11 +290,13 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
   const textures::TexelInterpolator texels(topology, S);
   const textures::OneRing ring = textures::BuildOneRing(topology.triangles, V);
   const float b = o.sharpness;
-  // Methods: the static neutral; eq. 14 with a library from the other K - 1 expressions
-  // (leave one out) and from all K; per-blendshape maps blended linearly by the weights.
+  // Methods: the static neutral; the strain texture with a library from the other K - 1
+  // expressions (leave one out) and from all K; eq. 14 as printed with the leave-one-out
+  // library; per-blendshape maps blended linearly by the weights.
   TextureScores scores;
-  LayerErrors &stat = scores.stat, &dynamic = scores.dynamic, &in_sample = scores.in_sample,
-              &per_shape = scores.per_shape, &network = scores.network, &predicted = scores.predicted;
+  LayerErrors &stat = scores.stat, &dynamic = scores.dynamic, &as_printed = scores.as_printed,
+              &in_sample = scores.in_sample, &per_shape = scores.per_shape, &network = scores.network,
+              &predicted = scores.predicted;
   std::unique_ptr<TextureModel> model;
   if (!o.model.empty()) {
     model = std::make_unique<TextureModel>(o.model);
@@ -312,19 +327,20 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
       shape_influence.push_back(textures::InfluenceMap(texels, shape_vertex.back()));
     }
     const bool keep = !o.maps.empty() && people == 1;
-    std::vector<float> kept_dynamic, kept_linear;
-    const auto all = textures::ExtractCompressStretch(Pointers(scan_influence), Pointers(p.expression_maps), n,
-                                                      synth::kSkinChannels, b);
-    const textures::DynamicTexture dyn_all(n, synth::kSkinChannels, p.neutral_maps, all, Pointers(shape_influence), b);
-    // The networks' textures of the person's expression scans, and eq. 12-14 with them.
+    std::vector<float> kept_dynamic, kept_linear, kept_printed;
+    const int C = synth::kSkinChannels;
+    const auto eq13 = textures::ExtractCompressStretch(Pointers(scan_influence), Pointers(p.expression_maps), n, C, b);
+    const auto all = textures::FitCompressStretch(Pointers(scan_influence), Pointers(p.expression_maps),
+                                                  p.neutral_maps, n, C, b);
+    const textures::StrainTexture strain_all(n, C, p.neutral_maps, all);
+    // The networks' textures of the person's expression scans, and the library made of them.
     std::vector<std::vector<float>> net_maps(model ? K : 0);
-    std::unique_ptr<textures::DynamicTexture> dyn_net;
+    std::unique_ptr<textures::StrainTexture> strain_net;
     if (model) {
       ParallelFor(0, K, ThreadsPerRank(0), [&](int k) { net_maps[k] = model->ExpressionMaps(p.neutral, p.neutral_maps, p.scans[k]); });
-      const auto net_library = textures::ExtractCompressStretch(Pointers(scan_influence), Pointers(net_maps), n,
-                                                                synth::kSkinChannels, b);
-      dyn_net = std::make_unique<textures::DynamicTexture>(n, synth::kSkinChannels, p.neutral_maps, net_library,
-                                                           Pointers(shape_influence), b);
+      strain_net = std::make_unique<textures::StrainTexture>(
+          n, C, p.neutral_maps,
+          textures::FitCompressStretch(Pointers(scan_influence), Pointers(net_maps), p.neutral_maps, n, C, b));
     }
     std::vector<float> kept_network, kept_predicted;
     for (int k = 0; k < K; ++k) {
@@ -334,20 +350,34 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
         others_influence.push_back(scan_influence[i]);
         others_maps.push_back(p.expression_maps[i]);
       }
-      const auto loo = textures::ExtractCompressStretch(Pointers(others_influence), Pointers(others_maps), n,
-                                                        synth::kSkinChannels, b);
-      const textures::DynamicTexture dyn(n, synth::kSkinChannels, p.neutral_maps, loo, Pointers(shape_influence), b);
+      // Leave one out: the library of the other expressions, as the strain texture and as eq. 14
+      // as printed (eq. 12-13 maps, the blendshapes' influences).
+      const textures::StrainTexture strain(
+          n, C, p.neutral_maps,
+          textures::FitCompressStretch(Pointers(others_influence), Pointers(others_maps), p.neutral_maps, n, C, b));
+      const textures::DynamicTexture printed(
+          n, C, p.neutral_maps,
+          textures::ExtractCompressStretch(Pointers(others_influence), Pointers(others_maps), n, C, b),
+          Pointers(shape_influence), b);
       std::vector<float> alpha(N);
       for (int i = 0; i < N; ++i) alpha[i] = p.weights(k, i);
-      const std::vector<float> est = dyn.Evaluate(alpha), est_all = dyn_all.Evaluate(alpha);
+      // The runtime mesh: the true blendshapes at the expression's weights.
+      rig::Vertices mesh = p.neutral;
+      for (int i = 0; i < N; ++i) {
+        if (alpha[i] != 0.f) mesh += alpha[i] * (p.shapes[i] - p.neutral);
+      }
+      const std::vector<float> now = influence(mesh);
+      const std::vector<float> est = strain.Evaluate(now), est_all = strain_all.Evaluate(now);
+      const std::vector<float> est_printed = printed.Evaluate(alpha);
       std::vector<float> linear = p.neutral_maps;
       for (int i = 0; i < N; ++i) {
         if (alpha[i] == 0.f) continue;
         for (size_t t = 0; t < texture_floats; ++t) linear[t] += alpha[i] * p.shape_offsets[i][t];
       }
-      const std::vector<float> est_net = dyn_net ? dyn_net->Evaluate(alpha) : std::vector<float>();
+      const std::vector<float> est_net = strain_net ? strain_net->Evaluate(now) : std::vector<float>();
       if (keep) {
         kept_dynamic.insert(kept_dynamic.end(), est.begin(), est.end());
+        kept_printed.insert(kept_printed.end(), est_printed.begin(), est_printed.end());
         kept_linear.insert(kept_linear.end(), linear.begin(), linear.end());
         if (model) {
           kept_network.insert(kept_network.end(), net_maps[k].begin(), net_maps[k].end());
@@ -361,6 +391,7 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
         const size_t at = t * synth::kSkinChannels;
         stat.Add(truth + at, p.neutral_maps.data() + at);
         dynamic.Add(truth + at, est.data() + at);
+        as_printed.Add(truth + at, est_printed.data() + at);
         in_sample.Add(truth + at, est_all.data() + at);
         per_shape.Add(truth + at, linear.data() + at);
         if (model) {
@@ -370,14 +401,14 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
       }
     }
     if (keep) {
-      WritePersonMaps(ctx, resolved, o.maps, j, S, p, all, scan_vertex, scan_influence, shape_vertex, kept_dynamic,
-                      kept_linear, kept_network, kept_predicted, b);
+      WritePersonMaps(ctx, resolved, o.maps, j, S, p, eq13, all, scan_vertex, scan_influence, shape_vertex,
+                      {kept_dynamic, kept_printed, kept_linear, kept_network, kept_predicted}, b);
     }
     FC_INFO("eval textures: person {} of {} held out", people, P);
   }
   if (people == 0) throw FileIOError(o.scans + ": no held-out people");
   scores.model = model != nullptr;
-  ReportEvalTextures(o, scores, people, K, N, V, S);
+  ReportEvalTextures(o, scores, people, K, N, S);
 }
 
 // [textures.library]
@@ -392,7 +423,8 @@ struct TexturesLibraryOptions {
   void Visit(V&& v) {
     v("scans", scans, "scan database with skin maps (scans synth, or scans import of meshes with their maps)");
     v("person", person, "the person whose expressions make the library: a name of /scans/people/names or an index");
-    v("rig", rig, "the person's rig (blendshapes infer, or any rig of the database's topology); its shapes drive eq. 14");
+    v("rig", rig, "the person's rig (blendshapes infer, or any rig of the database's topology); its mesh at a "
+                  "frame's weights drives the strain texture");
     v("sharpness", sharpness, "b of eq. 12's softmax exp(b I) over the influence maps, per cm of edge length change "
                               "(the paper's equation: 1)");
     v("out", out, "the library: a textured rig (HDF5) with /dynamic_texture (T_N, T_C, T_S and the shapes' influences)");
@@ -466,7 +498,7 @@ struct ExportTexturesOptions {
   template <class V>
   void Visit(V&& v) {
     v("library", library, "dynamic texture library (textures library): the person's rig with its maps");
-    v("track", track, "tracked take (track, or any file in its layout) whose weights drive eq. 14");
+    v("track", track, "tracked take (track, or any file in its layout) whose weights drive the strain texture");
     v("out", out, "folder for the sequences OUT/<layer>.<frame, 5 digits>.exr (linear albedo RGB, specular, "
                   "displacement in mm); frames already there are kept");
     v("layers", layers, "layers to write: albedo, specular, displacement");
@@ -490,7 +522,7 @@ void RunExportTextures(const StageFlags& flags, AppState* state) {
   const auto o = ResolveStageOptions<ExportTexturesOptions>(flags, &ctx, &resolved);
   const dist::Comm& comm = ctx.comm;
   rig::Rig rig;
-  std::unique_ptr<textures::DynamicTexture> dynamic;
+  std::unique_ptr<textures::RigStrainTexture> dynamic;
   std::unique_ptr<TrackedRig> track;
   int S = 0;
   dist::CoordinateExceptions(comm, [&] {
@@ -541,16 +573,18 @@ void RegisterTextures(CLI::App* app, AppState* state) {
   AddStage<ExportTexturesOptions>(
       GroupSubcommand(app, "export", "Tracked animation to other tools' formats"), state, "textures", "export.textures",
       "export textures",
-      "A tracked take's dynamic textures (eq. 14 at each frame's weights) as EXR sequences of albedo, specular and "
+      "A tracked take's dynamic textures (the strain texture at each frame's weights) as EXR sequences of albedo, "
+      "specular and "
       "displacement, frames spread across ranks",
       PathKeys{{"library", "track"}, {{"out", OutputKind::kFolder}}},
       RunExportTextures);
   CLI::App* textures = GroupSubcommand(app, "textures", "Dynamic textures (paper 001 Sec. 5)");
   AddStage<TexturesLibraryOptions>(
       textures, state, "library", "textures.library", "textures library",
-      "A person's dynamic texture library from their expression scans and skin maps: eq. 10-13's compress and "
-      "stretch maps and the rig shapes' influences (eq. 14 at runtime); writes a textured rig that render "
-      "draws with the texture of its weights and export textures plays over a take",
+      "A person's dynamic texture library from their expression scans and skin maps: compress and stretch maps "
+      "fitted for the strain texture (eq. 10-13's influences and references) and the rig shapes' influences; "
+      "writes a textured rig that render draws with the texture of its weights and export textures plays over a "
+      "take",
       PathKeys{{"scans", "rig"}, {{"out", OutputKind::kHdf5}}},
       RunTexturesLibrary);
   AddStage<EvalTexturesOptions>(

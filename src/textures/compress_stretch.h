@@ -11,11 +11,21 @@
 // over the expressions' textures T_i. Eq. 14, for blendshape weights alpha:
 //   T = T_N + sum_i alpha_i (I^_i,compress (T_C - T_N) + I^_i,stretch (T_S - T_N))
 // with the blendshapes' normalized influences.
+//
+// The runtime facecap uses, the strain texture, blends the same maps by how much the skin is
+// compressed or stretched now: with I(x) the eq. 10-11 influence of the current mesh (the rig
+// at the frame's weights) against the neutral, and R(x) the influence T_C or T_S was captured
+// at (eq. 13 applied to the expressions' influences, R_C = sum_i I^_i,compress I_i,compress),
+//   T = T_N + w_C (T_C - T_N) + w_S (T_S - T_N),   w = min(kMaxStrainWeight, I / R)
+// (w = 0 where R is 0). FitCompressStretch makes T_C and T_S for it: per texel, the two maps
+// that best reproduce the expressions' textures under their own strain weights (least squares,
+// held near eq. 13's maps where the expressions say little).
 #ifndef FACECAP_TEXTURES_COMPRESS_STRETCH_H_
 #define FACECAP_TEXTURES_COMPRESS_STRETCH_H_
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "rig/rig.h"
@@ -34,13 +44,65 @@ std::vector<float> BlendTextures(const std::vector<std::vector<float>>& weights,
 struct CompressStretchMaps {
   std::vector<float> compress;  // T_C, n x channels
   std::vector<float> stretch;   // T_S, n x channels
+  std::vector<float> reference;  // n x 2: R_C, R_S, the influence T_C and T_S stand for
 };
-// Eq. 12-13 from the expressions' influence maps (n x 2 each) and textures (n x channels).
+// Eq. 12-13 from the expressions' influence maps (n x 2 each) and textures (n x channels), and
+// the reference influences.
 CompressStretchMaps ExtractCompressStretch(const std::vector<const float*>& influence_maps,
                                            const std::vector<const float*>& textures, size_t n,
                                            int channels, float sharpness);
 
-// Eq. 14 at runtime. The blendshapes' normalized influences are kept sparse: with
+// The strain weights saturate at this multiple of the reference influence.
+inline constexpr float kMaxStrainWeight = 1.5f;
+
+// T_C and T_S for the strain texture: eq. 12-13's references, then per texel the least-squares
+// maps under the expressions' strain weights; `neutral` is T_N (n x channels).
+CompressStretchMaps FitCompressStretch(const std::vector<const float*>& influence_maps,
+                                       const std::vector<const float*>& textures, const std::vector<float>& neutral,
+                                       size_t n, int channels, float sharpness);
+
+// The strain texture at runtime (see the top of this file).
+class StrainTexture {
+ public:
+  // neutral, maps.compress, maps.stretch: n x channels; maps.reference: n x 2.
+  StrainTexture(size_t n, int channels, std::vector<float> neutral, const CompressStretchMaps& maps);
+
+  size_t NumTexels() const { return n_; }
+  int channels() const { return channels_; }
+  const std::vector<float>& neutral() const { return neutral_; }
+
+  // out: n x channels; influence: the current mesh's eq. 10-11 map, n x 2.
+  void Evaluate(const float* influence, float* out) const;
+  std::vector<float> Evaluate(const std::vector<float>& influence) const;
+
+ private:
+  size_t n_ = 0;
+  int channels_ = 0;
+  std::vector<float> neutral_;
+  std::vector<float> compress_delta_;  // T_C - T_N
+  std::vector<float> stretch_delta_;   // T_S - T_N
+  std::vector<float> inverse_reference_;  // n x 2: 1 / R, 0 where R is 0
+};
+
+// The strain texture of a rig: each weight vector's mesh (the rig's shapes and jaw, unposed)
+// gives the influence against the rig's neutral, interpolated over its size x size UV layout.
+class RigStrainTexture {
+ public:
+  RigStrainTexture(const rig::Rig& rig, int size, int channels, std::vector<float> neutral,
+                   const CompressStretchMaps& maps);
+  ~RigStrainTexture();
+  RigStrainTexture(const RigStrainTexture&) = delete;
+  RigStrainTexture& operator=(const RigStrainTexture&) = delete;
+
+  // n x channels for one weight per rig shape.
+  std::vector<float> Evaluate(const std::vector<float>& weights) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Eq. 14 as the paper prints it, at runtime. The blendshapes' normalized influences are kept sparse: with
 // m = max_j b I_j and Z = sum_j exp(b I_j - m) at a texel,
 //   sum_i alpha_i I^_i = exp(-m) / Z * sum_i alpha_i + sum_{i: I_i > 0} alpha_i e_i,
 //   e_i = (exp(b I_i - m) - exp(-m)) / Z,
@@ -83,12 +145,6 @@ class DynamicTexture {
   std::vector<Sparse> stretch_;
 };
 
-// Eq. 14 for a rig: `vertex_influence` (N x V x 2: each of the rig's N shapes' compress and
-// stretch influence per vertex) interpolated over the rig's size x size UV layout, with the
-// library's maps (size^2 x channels).
-DynamicTexture DynamicTextureForRig(const rig::Rig& rig, int size, int channels, std::vector<float> neutral,
-                                    const CompressStretchMaps& maps, const std::vector<float>& vertex_influence,
-                                    float sharpness);
 
 }  // namespace facecap::textures
 

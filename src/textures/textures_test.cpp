@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "rig/demo_head.h"
+#include "rig/evaluate.h"
 #include "textures/compress_stretch.h"
 #include "textures/influence.h"
 #include "textures/network_channels.h"
@@ -167,6 +168,109 @@ TEST(CompressStretch, ZeroInfluenceTexelsShareTheWeightsEvenly) {
   const double e = std::exp(1.0);  // exp(b * 0.5)
   EXPECT_NEAR(out[0], 1.0 / (1.0 + e) * 1.0 + 0.5 * 2.0, 1e-6);
   EXPECT_NEAR(out[1], 0.5 * 1.0 + 0.5 * 2.0, 1e-6);
+}
+
+// Expressions whose textures follow the strain texture's model exactly, T_k = T_N + w_C,k D_C +
+// w_S,k D_S with w = min(1.5, I / R): the fit recovers D_C and D_S (eq. 13's blend does not), the
+// strain texture then reproduces every expression, gives T_N exactly at zero influence and
+// T_C where the compress influence equals its reference, and saturates beyond 1.5 R.
+TEST(StrainTexture, FitRecoversTexturesThatFollowTheStrainModel) {
+  const RandomLibrary expressions(8, 21), offsets(3, 22);
+  const size_t n = expressions.n;
+  const int C = expressions.channels;
+  const float b = 30.f;
+  const std::vector<float>& neutral = offsets.textures[0];
+  const CompressStretchMaps eq13 = ExtractCompressStretch(expressions.Influence(), expressions.Textures(), n, C, b);
+  // Reference influences: eq. 13 applied to the influences themselves.
+  for (size_t t = 0; t < n; ++t) {
+    for (int kind = 0; kind < 2; ++kind) {
+      double z = 0, want = 0;
+      for (const auto& m : expressions.influence) z += std::exp(b * m[2 * t + kind]);
+      for (const auto& m : expressions.influence) want += std::exp(b * m[2 * t + kind]) / z * m[2 * t + kind];
+      ASSERT_NEAR(eq13.reference[2 * t + kind], want, 1e-6);
+    }
+  }
+  auto weight = [&](float influence, float reference) {
+    return reference > 1e-4f ? std::min(kMaxStrainWeight, influence / reference) : 0.f;
+  };
+  std::vector<std::vector<float>> textures;
+  for (const auto& inf : expressions.influence) {
+    std::vector<float> tex(n * C);
+    for (size_t t = 0; t < n; ++t) {
+      const float wc = weight(inf[2 * t], eq13.reference[2 * t]);
+      const float ws = weight(inf[2 * t + 1], eq13.reference[2 * t + 1]);
+      for (int c = 0; c < C; ++c) {
+        const size_t k = t * C + c;
+        tex[k] = neutral[k] + wc * (offsets.textures[1][k] - 0.5f) + ws * (offsets.textures[2][k] - 0.5f);
+      }
+    }
+    textures.push_back(tex);
+  }
+  std::vector<const float*> pointers;
+  for (const auto& m : textures) pointers.push_back(m.data());
+  const CompressStretchMaps fit = FitCompressStretch(expressions.Influence(), pointers, neutral, n, C, b);
+  const CompressStretchMaps blend = ExtractCompressStretch(expressions.Influence(), pointers, n, C, b);
+  const StrainTexture strain(n, C, neutral, fit), strain_of_blend(n, C, neutral, blend);
+  double fit_worst = 0, blend_worst = 0;
+  for (size_t e = 0; e < textures.size(); ++e) {
+    const std::vector<float> got = strain.Evaluate(expressions.influence[e]);
+    const std::vector<float> got_blend = strain_of_blend.Evaluate(expressions.influence[e]);
+    for (size_t k = 0; k < got.size(); ++k) {
+      fit_worst = std::max(fit_worst, static_cast<double>(std::abs(got[k] - textures[e][k])));
+      blend_worst = std::max(blend_worst, static_cast<double>(std::abs(got_blend[k] - textures[e][k])));
+    }
+  }
+  EXPECT_LT(fit_worst, 2e-3);
+  EXPECT_GT(blend_worst, 0.05);
+  EXPECT_EQ(strain.Evaluate(std::vector<float>(2 * n, 0.f)), neutral);  // exactly
+  // Compress influence at the reference, none of stretch: T_C; at 3 R: still 1.5 (T_C - T_N).
+  std::vector<float> at_reference(2 * n, 0.f), beyond(2 * n, 0.f);
+  for (size_t t = 0; t < n; ++t) {
+    at_reference[2 * t] = fit.reference[2 * t];
+    beyond[2 * t] = 3.f * fit.reference[2 * t];
+  }
+  const std::vector<float> c1 = strain.Evaluate(at_reference), c3 = strain.Evaluate(beyond);
+  for (size_t t = 0; t < n; ++t) {
+    if (fit.reference[2 * t] <= 1e-4f) continue;
+    for (int c = 0; c < C; ++c) {
+      const size_t k = t * C + c;
+      EXPECT_NEAR(c1[k], fit.compress[k], 1e-5f);
+      EXPECT_NEAR(c3[k], neutral[k] + kMaxStrainWeight * (fit.compress[k] - neutral[k]), 1e-5f);
+    }
+  }
+  EXPECT_THROW(strain.Evaluate(std::vector<float>(2 * n - 2, 0.f)), InvalidInputError);
+}
+
+// A rig's strain texture at zero weights is its neutral texture exactly, and at a shape that
+// moves the skin it changes the texture only where that shape moves it.
+TEST(StrainTexture, RigAtZeroWeightsIsTheNeutralAndAShapeChangesOnlyItsSkin) {
+  const rig::Rig& head = Head();
+  const int S = 32;
+  const size_t n = static_cast<size_t>(S) * S;
+  const int C = 1;
+  CompressStretchMaps maps{std::vector<float>(n, 1.f), std::vector<float>(n, 2.f), std::vector<float>(2 * n, 0.01f)};
+  const RigStrainTexture texture(head, S, C, std::vector<float>(n, 0.f), maps);
+  const int N = head.NumShapes();
+  EXPECT_EQ(texture.Evaluate(std::vector<float>(N, 0.f)), std::vector<float>(n, 0.f));
+  std::vector<float> w(N, 0.f);
+  w[head.ShapeIndex("jawOpen")] = 1.f;
+  const std::vector<float> open = texture.Evaluate(w);
+  const TexelInterpolator texels(head, S);
+  const OneRing ring = BuildOneRing(head.triangles, head.NumVertices());
+  rig::Vertices mesh;
+  rig::EvaluateShape(head, Eigen::Map<const Eigen::VectorXf>(w.data(), N), &mesh);
+  const std::vector<float> inf =
+      InfluenceMap(texels, InfluenceValues(MeanEdgeLength(ring, head.neutral), MeanEdgeLength(ring, mesh)));
+  int moved = 0;
+  for (size_t t = 0; t < n; ++t) {
+    const float want = std::min(kMaxStrainWeight, inf[2 * t] / 0.01f) * 1.f +
+                       std::min(kMaxStrainWeight, inf[2 * t + 1] / 0.01f) * 2.f;
+    EXPECT_NEAR(open[t], want, 1e-4f) << t;
+    moved += open[t] != 0.f;
+  }
+  EXPECT_GT(moved, 20);
+  EXPECT_LT(moved, static_cast<int>(n) / 2);
+  EXPECT_THROW(texture.Evaluate(std::vector<float>(N - 1, 0.f)), InvalidInputError);
 }
 
 // The networks' channels: the targets' low and high displacement frequencies sum to the
