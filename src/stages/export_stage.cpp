@@ -10,13 +10,16 @@
 
 #include "io/hdf5.h"
 #include "io/mesh_io.h"
+#include "io/dynamic_texture_file.h"
 #include "io/image_io.h"
+#include "io/texture_file.h"
 #include "io/rig_io.h"
 #include "face/frame_source.h"
 #include "render/contact_sheet.h"
 #include "render/landmarks.h"
 #include "stages/ingested_frames.h"
 #include "render/rasterizer.h"
+#include "render/shading.h"
 #include "rig/arkit.h"
 #include "rig/evaluate.h"
 #include "synth/appearance.h"
@@ -266,6 +269,7 @@ struct ExportOverlayOptions {
   int count = 0;                     // frames to draw from the first (0: all tracked frames)
   std::string sheet = "";            // contact sheet PNG of evenly spaced frames ("": none)
   int sheet_count = 12;              // frames on the sheet
+  bool texture = false;              // the rig shaded with its texture instead of its regions
 
   template <class V>
   void Visit(V&& v) {
@@ -283,6 +287,9 @@ struct ExportOverlayOptions {
     v("count", count, "frames to draw from the first (0: all tracked frames)");
     v("sheet", sheet, "also a contact sheet PNG of sheet_count evenly spaced frames (empty: none)");
     v("sheet_count", sheet_count, "frames on the contact sheet");
+    v("texture", texture,
+      "draw the rig shaded with the rig file's texture (a dynamic texture library: its texture at each "
+      "frame's weights) at `opacity` instead of its segmentation colours");
   }
   bool Check(std::string* why) const {
     if (!(fps >= 0.f && fps <= 1000.f)) { *why = "fps must be in [0, 1000] (0: the track's)"; return false; }
@@ -320,6 +327,65 @@ Image8 DrawOverlay(const Image8& frame, const render::GBuffer& g, const rig::Rig
   }
   return out;
 }
+
+// The frame with the rig's shaded image (linear RGB, the G-buffer's size) blended in at
+// `opacity` where the rig covers it.
+Image8 DrawTexturedOverlay(const Image8& frame, const render::GBuffer& g, const ImageF& shaded, float opacity) {
+  Image8 out = frame;
+  Image8 srgb;
+  render::LinearToImage8(shaded, true, &srgb);
+  for (int y = 0; y < g.height; ++y) {
+    for (int x = 0; x < g.width; ++x) {
+      if (g.triangle[g.PixelIndex(x, y)] < 0) continue;
+      for (int k = 0; k < 3; ++k) {
+        const float v = (1.f - opacity) * frame.at(x, y, k) + opacity * srgb.at(x, y, k);
+        out.at(x, y, k) = static_cast<uint8_t>(std::clamp(std::lround(v), 0L, 255L));
+      }
+    }
+  }
+  return out;
+}
+
+// What `export overlay --texture` shades the rig with: the rig file's dynamic texture library
+// at each frame's weights, else its static texture.
+class OverlayTexture {
+ public:
+  OverlayTexture(const std::string& path, const rig::Rig& rig) : rig_(rig) {
+    int size = 0;
+    dynamic_ = ReadRigDynamicTexture(path, rig, &size);
+    size_ = size;
+    if (!dynamic_) {
+      texture_ = io::ReadRigTexture(path);
+      if (texture_.empty()) {
+        throw FileIOError(path + ": no texture (/texture/albedo) to draw with --texture; give a textured rig "
+                          "(appearance gather, textures library or infer) or draw its segmentation");
+      }
+    }
+    lighting_.ambient = {0.35f, 0.35f, 0.35f};
+    shading_.albedo_source = render::AlbedoSource::kTexture;
+  }
+
+  // The rig posed in `posed` (camera space) and rasterized with barycentrics into `g`, shaded.
+  ImageF Shade(const render::GBuffer& g, const rig::Vertices& posed, const Eigen::VectorXf& weights) {
+    if (dynamic_) {
+      const std::vector<float> maps = dynamic_->Evaluate(std::vector<float>(weights.data(), weights.data() + weights.size()));
+      texture_ = io::SkinMapLayer(maps, size_, 0, 3);
+    }
+    render::VertexNormals(posed, rig_.triangles, &normals_);
+    ImageF linear;
+    render::RenderShaded(g, posed, normals_, rig_, lighting_, shading_, &texture_, nullptr, &linear);
+    return linear;
+  }
+
+ private:
+  const rig::Rig& rig_;
+  std::unique_ptr<textures::RigStrainTexture> dynamic_;
+  int size_ = 0;
+  ImageF texture_;
+  rig::Vertices normals_;
+  render::Lighting lighting_;
+  render::ShadingOptions shading_;
+};
 
 // Reads the frames a track was made of: the source video's frames (or images) at the
 // track's source indices, or an image dataset of the frames file.
@@ -418,7 +484,8 @@ void RunExportOverlay(const StageFlags& flags, AppState* state) {
   rig::Vertices posed;
   render::GBuffer g;
   render::RasterizeOptions raster;
-  raster.barycentrics = false;
+  raster.barycentrics = o.texture;
+  std::unique_ptr<OverlayTexture> shade = o.texture ? std::make_unique<OverlayTexture>(o.rig, rig) : nullptr;
   std::vector<Image8> video;
   video.reserve(count);
   int factor = o.scale;
@@ -444,7 +511,8 @@ void RunExportOverlay(const StageFlags& flags, AppState* state) {
       const render::Camera camera = source.Camera(track, f, frame, &pose);
       evaluator.EvaluatePosed(pose, track.Weights(f), &posed);
       render::Rasterize(posed, rig.triangles, camera, &g, raster);
-      frame = DrawOverlay(frame, g, rig, o.opacity);
+      frame = shade ? DrawTexturedOverlay(frame, g, shade->Shade(g, posed, track.Weights(f)), o.opacity)
+                    : DrawOverlay(frame, g, rig, o.opacity);
     }
     video.push_back(synth::UpscaleNearest(frame, factor));
   }

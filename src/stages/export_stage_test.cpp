@@ -9,6 +9,7 @@
 
 #include "io/hdf5.h"
 #include "io/mesh_io.h"
+#include "io/texture_file.h"
 #include "rig/arkit.h"
 #include "testing/testing.h"
 #include "util/errors.h"
@@ -140,6 +141,36 @@ TEST(ExportOverlay, DrawsTheTrackedRigWhereTheFaceIs) {
   }
   ASSERT_GT(face, F * 500);
   EXPECT_GT(close, 0.6 * face) << close << " of " << face;
+
+  // --texture shades the rig with the rig file's texture: a green one shows green where the
+  // face is; the clip (its albedo is truth, not a rig texture) has none to draw with.
+  const std::string textured = dir.File("textured.h5");
+  ASSERT_EQ(RunFacecap("rig demo --out " + textured).code, 0);
+  {
+    io::H5File t = io::H5File::OpenReadWrite(textured);
+    ImageF green(16, 16, 3);
+    for (size_t k = 0; k < green.data.size(); k += 3) green.data[k + 1] = 0.6f;
+    io::WriteColorTexture(&t, io::kTextureAlbedoPath, green);
+  }
+  const std::string shaded = dir.File("shaded.mp4");
+  r = RunFacecap("export overlay --track " + track + " --rig " + textured + " --frames " + clip +
+                 " --texture --opacity 1 --scale 1 --out " + shaded);
+  ASSERT_EQ(r.code, 0) << r.output;
+  ASSERT_EQ(std::system(("ffmpeg -loglevel error -y -i " + shaded +
+                         " -f rawvideo -pix_fmt rgb24 " + raw).c_str()), 0);
+  std::ifstream shaded_in(raw, std::ios::binary);
+  const std::vector<uint8_t> drawn((std::istreambuf_iterator<char>(shaded_in)), {});
+  ASSERT_EQ(drawn.size(), decoded.size());
+  int green_pixels = 0;
+  for (size_t p = 0; p < drawn.size(); p += 3) {
+    if (truth[p] == 0 && truth[p + 1] == 0 && truth[p + 2] == 0) continue;
+    green_pixels += drawn[p + 1] > drawn[p] + 30 && drawn[p + 1] > drawn[p + 2] + 30;
+  }
+  EXPECT_GT(green_pixels, 0.6 * face) << green_pixels << " of " << face;
+  r = RunFacecap("export overlay --track " + track + " --rig " + clip + " --frames " + clip + " --texture --out " +
+                 dir.File("none.mp4"));
+  EXPECT_EQ(r.code, kExitInput) << r.output;
+  EXPECT_NE(r.output.find(clip + ": no texture"), std::string::npos) << r.output;
 }
 
 TEST(ExportOverlay, BadOptionsAreUsageErrors) {
