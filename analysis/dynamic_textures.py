@@ -115,8 +115,7 @@ def sheet(scans, maps, path):
     fig.suptitle("held-out person: true, dynamic (strain texture, library of the other expressions), eq. 14 as "
                  "printed,\ndynamic from the networks' predicted textures, static and per-blendshape textures",
                  fontsize=10)
-    fig.subplots_adjust(top=0.93)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.96))
     fig.savefig(path, dpi=80)
     print(f"contact sheet -> {path}")
 

@@ -23,10 +23,10 @@ log "scans synth (textured) -> ${work}/scans.h5"
 "${mpirun_cmd[@]}" -n "${ranks}" "${facecap}" scans synth --out "${work}/scans.h5" --people 60 --test-people 12
 log "textures train -> ${work}/texnet.h5"
 "${mpirun_cmd[@]}" -n "${ranks}" "${facecap}" textures train --scans "${work}/scans.h5" --out "${work}/texnet.h5"
-for b in 1 30 100 300; do
+for b in 1 30 100 300 1000; do
   log "eval textures, sharpness ${b}"
   maps=()
-  [[ "${b}" == 100 ]] && maps=(--maps "${work}/maps.h5" --model "${work}/texnet.h5")
+  [[ "${b}" == 300 ]] && maps=(--maps "${work}/maps.h5" --model "${work}/texnet.h5")
   "${facecap}" eval textures --scans "${work}/scans.h5" --sharpness "${b}" --out "${work}/eval_b${b}.json" \
     "${maps[@]}" > /dev/null
 done
@@ -43,13 +43,13 @@ print("\nPSNR (dB) against the true expression textures where the expression mov
 print("| sharpness b (per cm) | static neutral | dynamic, strain texture (leave one out) | eq. 14 as printed "
       "(leave one out) | per-blendshape maps |")
 print("| --- | --- | --- | --- | --- |")
-for b in (1, 30, 100, 300):
+for b in (1, 30, 100, 300, 1000):
     d = json.load(open(f"{work}/eval_b{b}.json"))
     cell = lambda k: " / ".join(f"{d[k][x]:.2f}" for x in ("albedo_db", "specular_db", "displacement_db"))
     print(f"| {b} | {cell('static_neutral')} | {cell('dynamic')} | {cell('eq14_as_printed')} | "
           f"{cell('per_blendshape_maps')} |")
-d = json.load(open(f"{work}/eval_b100.json"))
-print("\nThe networks (sharpness 100): their expression textures of the held-out people's expression scans, and "
+d = json.load(open(f"{work}/eval_b300.json"))
+print("\nThe networks (sharpness 300): their expression textures of the held-out people's expression scans, and "
       "the strain texture of the library fitted to them, against the truth:\n")
 print("| static neutral | network expression textures | dynamic (predicted library) | dynamic (true textures, leave one out) |")
 print("| --- | --- | --- | --- |")

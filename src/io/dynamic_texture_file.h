@@ -29,7 +29,7 @@ inline constexpr const char* kSkinMapChannelNames = "albedo_r albedo_g albedo_b 
 
 struct DynamicTextureLibrary {
   int size = 0;                    // S
-  float sharpness = 100.f;         // b, per cm
+  float sharpness = 300.f;         // b, per cm
   std::vector<float> neutral, compress, stretch;  // S x S x 5 each
   int num_shapes = 0, num_vertices = 0;           // N, V
   std::vector<float> influence;    // N x V x 2

@@ -263,7 +263,7 @@ struct TexturesInferOptions {
   std::string rig = "rig.h5";       // the person's rig
   std::string scans = "scans.h5";   // where the person's neutral skin maps are
   std::string person = "0";         // the person in it
-  float sharpness = 100.f;          // b of eq. 12 and 14, per cm
+  float sharpness = 300.f;          // b of eq. 12, per cm
   std::string out = "library.h5";   // the library (a textured rig)
 
   template <class V>

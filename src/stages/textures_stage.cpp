@@ -34,7 +34,7 @@ namespace {
 // [eval.textures]
 struct EvalTexturesOptions {
   std::string scans = "scans.h5";  // textured scan database (scans synth)
-  float sharpness = 100.f;         // b of eq. 12, per cm
+  float sharpness = 300.f;         // b of eq. 12, per cm
   bool json = true;                // print one JSON object (else a table)
   std::string out = "";            // also write the JSON to this file
   std::string maps = "";           // the first held-out person's maps (HDF5)
@@ -416,7 +416,7 @@ struct TexturesLibraryOptions {
   std::string scans = "scans.h5";  // scan database with skin maps
   std::string person = "0";        // the person: a name of /scans/people/names or an index
   std::string rig = "rig.h5";      // the person's rig
-  float sharpness = 100.f;         // b of eq. 12 and 14, per cm
+  float sharpness = 300.f;         // b of eq. 12, per cm
   std::string out = "library.h5";  // the library (a textured rig)
 
   template <class V>
