@@ -66,6 +66,7 @@ struct DeepfakeTrainOptions {
   double average_decay = 0.999;                  // moving average of the weights (0: none)
   int batch = 8;                                 // global batch: images of A and of B per step
   int seed = 1;                                  // initial weights and batch sampling
+  std::string init = "";                         // model whose weights start training ("": random)
   int checkpoint_every = 200;                    // steps between checkpoints (0: only at the end)
   int preview_every = 200;                       // steps between preview grids (0: only at the end)
   std::string device = "cpu";                    // cpu or cuda
@@ -122,6 +123,11 @@ struct DeepfakeTrainOptions {
     v("steps", steps, "training steps; a finished model is trained further when this grows");
     v("batch", batch, "global batch (images of A and of B per step), shared among the ranks");
     v("seed", seed, "seed of the initial weights and of the batch sampling");
+    v("init", init,
+      "a warm start: a model file (deepfake train) whose weights, its moving average when it "
+      "has one, start this training instead of random ones, e.g. a model of other footage "
+      "fine-tuned to a new video; its network and regions must be this one's (empty: random "
+      "weights)");
     v("average_decay", average_decay,
       "decay of an exponential moving average of the weights, kept beside them in the model "
       "file (/averaged_weights), which infer uses by default (0: none; e.g. 0.999)");
@@ -522,6 +528,18 @@ void WriteRegions(io::H5File* f, const Regions& r) {
   f->WriteMatrix("/regions/colors", r.colors);
 }
 
+// A warm start: the weights of the model file `path` (its moving average, when it has one),
+// whose network and regions must be the model's.
+void StartFrom(const std::string& path, const Regions& regions, nn::DeepfakeModel* model) {
+  const io::H5File f = io::H5File::OpenRead(path);
+  if (ReadRegions(f).names != regions.names) {
+    throw FileIOError(path + ": init model's /regions differ from domain A's; a warm start needs "
+                      "a model trained on renders of the same regions");
+  }
+  nn::ReadWeights(f, model);
+  if (nn::ReadAveragedWeights(f, *model, model->parameters())) model->ParametersWritten();
+}
+
 // What training reads: this rank's blocks of A, B and the paired clips, A's regions, the model.
 struct TrainingData {
   ImageShard a, b, paired_image, paired_target;
@@ -554,6 +572,7 @@ TrainingData ReadTrainingData(const DeepfakeTrainOptions& o, const dist::Comm& c
   }
   d.model = std::make_unique<nn::DeepfakeModel>(network, static_cast<uint64_t>(o.seed), o.device);
   SetModelPalette(d.model.get(), d.regions, o.a);
+  if (!o.init.empty()) StartFrom(o.init, d.regions, d.model.get());
   return d;
 }
 
@@ -1021,7 +1040,7 @@ void RegisterDeepfake(CLI::App* app, AppState* state) {
       "Train E, D_A, D_B with the discriminators G_image and G_latent on A (synthetic renders) and "
       "B (real frames), data-parallel across ranks with gradient allreduce; checkpoints, resumes, "
       "progress lines with each loss, preview grid",
-      PathKeys{{"a", "b", "paired"}, {{"out", OutputKind::kHdf5}}},
+      PathKeys{{"a", "b", "paired", "init"}, {{"out", OutputKind::kHdf5}}},
       RunDeepfakeTrain);
   AddStage<DeepfakeInferOptions>(
       deepfake, state, "infer", "deepfake.infer", "deepfake infer",

@@ -267,5 +267,29 @@ TEST_F(DeepfakeStage, PairedExamplesTeachTheTranslation) {
   EXPECT_NE(bad.output.find("samples2.h5"), std::string::npos) << bad.output;
 }
 
+// A warm start (--init) begins from the init model's moving average of the weights; a model of
+// another network is refused by name.
+TEST_F(DeepfakeStage, AWarmStartBeginsFromTheInitModelsAveragedWeights) {
+  const std::string from = File("warm_from.h5"), warm = File("warm.h5");
+  auto t = RunFacecap(Train(from, 3) + " --average-decay 0.5", 0, kEnv);
+  ASSERT_EQ(t.code, 0) << t.output;
+  auto r = RunFacecap(Train(warm, 0) + " --init " + from, 0, kEnv);
+  ASSERT_EQ(r.code, 0) << r.output;
+  io::H5File f = io::H5File::OpenRead(from);
+  nn::DeepfakeModel model(nn::ReadNetworkOptions(f), 0);
+  const int64_t n = model.num_parameters();
+  std::vector<float> averaged(n);
+  ASSERT_TRUE(nn::ReadAveragedWeights(f, model, averaged.data()));
+  nn::ReadWeights(f, &model);
+  const std::vector<float> last(model.parameters(), model.parameters() + n);
+  ASSERT_NE(last, averaged);
+  nn::ReadWeights(io::H5File::OpenRead(warm), &model);
+  EXPECT_EQ(std::vector<float>(model.parameters(), model.parameters() + n), averaged);
+
+  auto other = RunFacecap(Train(File("warm_other.h5"), 1, 12) + " --init " + from, 0, kEnv);
+  EXPECT_EQ(other.code, kExitInput) << other.output;
+  EXPECT_NE(other.output.find(from), std::string::npos) << other.output;
+}
+
 }  // namespace
 }  // namespace facecap::stages
