@@ -8,7 +8,7 @@ namespace facecap::face {
 
 bool CropOptions::Check(std::string* why) const {
   if (size < 16 || size > 1024) { *why = "crop size must be in [16, 1024]"; return false; }
-  if (!(padding >= 0.0 && padding <= 2.0)) { *why = "crop padding must be in [0, 2]"; return false; }
+  if (!(padding >= -0.4 && padding <= 2.0)) { *why = "crop padding must be in [-0.4, 2]"; return false; }
   if (!(raise >= -0.5 && raise <= 0.5)) { *why = "crop raise must be in [-0.5, 0.5]"; return false; }
   return true;
 }

@@ -16,6 +16,7 @@ struct CropOptions {
   int size = 128;
   // Margin around the mean face in units of its size (dlib's face chips use 0.2-0.25): the
   // mean face's unit frame maps to [padding, 1 + padding] / (1 + 2 padding) of the crop.
+  // Negative: the crop cuts into the face (with `raise`, e.g. a crop of the mouth and chin).
   double padding = 0.25;
   // Moves the face up in the crop by this fraction of the crop height (negative: down), e.g.
   // to frame crops the way the rig's synthetic renders are framed.

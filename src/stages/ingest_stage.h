@@ -82,7 +82,8 @@ struct IngestOptions {
       "this; faces found narrower than min_face_size are recorded as too small (0: no second "
       "search)");
     v("crop_size", crop_size, "aligned crop width and height in pixels");
-    v("crop_padding", crop_padding, "margin around the mean face in the crop, in face sizes");
+    v("crop_padding", crop_padding, "margin around the mean face in the crop, in face sizes (negative: the crop cuts into "
+      "the face; with crop_raise, e.g. -0.125 and 0.43 frame the mouth and chin)");
     v("crop_raise", crop_raise,
       "the face moved up by this fraction of the crop height (negative: down)");
     v("fov_deg", fov_deg,
