@@ -2,6 +2,7 @@
 // not an array, are errors that name them; nothing runs and the current folder is untouched.
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -36,6 +37,23 @@ TEST(JobPlan, StagesMustBeAnArray) {
   const testing::CommandResult r = testing::RunFacecap("run " + dir.File("job.toml"));
   EXPECT_EQ(r.code, kExitUsage) << r.output;
   EXPECT_NE(r.output.find("[run] stages must be an array"), std::string::npos) << r.output;
+}
+
+// Every job file shipped in jobs/ names known stages with known keys and valid values: --list
+// checks each table as its stage would and prints one line per stage.
+TEST(JobPlan, EveryShippedJobFileIsValid) {
+  int jobs = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(testing::SourceDir() + "/jobs")) {
+    if (entry.path().extension() != ".toml") continue;
+    ++jobs;
+    const testing::CommandResult r = testing::RunFacecap("run " + entry.path().string() + " --list");
+    EXPECT_EQ(r.code, 0) << entry.path() << ": " << r.output;
+    std::istringstream lines(r.output);
+    int listed = 0;
+    for (std::string line; std::getline(lines, line);) listed += !line.empty();
+    EXPECT_GE(listed, 1) << entry.path();
+  }
+  EXPECT_GE(jobs, 10);
 }
 
 }  // namespace
