@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The speed figures of README's Figures table in one run, each beside the baseline measured in
 # the same run (1 rank against 2, the icosphere against the head, torch::mm's rate against a
-# training step's), and the deepfake trainer's arithmetic rate against this machine's
-# single-precision matrix-multiply rate. The accuracy figures come from their jobs
+# training step's), and the deepfake and blendshape trainers' arithmetic rates against this
+# machine's single-precision matrix-multiply rate. The accuracy figures come from their jobs
 # (jobs/demo.toml, jobs/video.toml, jobs/blendshapes.toml) and scripts; with an output folder
 # of the demo job (OUT_DEMO, default out/demo) its metrics are listed too.
 #
@@ -76,8 +76,8 @@ if run deepfake "${analysis}/bench_deepfake.sh" "${build_dir}"; then
   row "deepfake training: 2 ranks against 1" bench_deepfake.sh deepfake.log "parallel efficiency"
 fi
 if run train_rate env OMP_NUM_THREADS=1 GLOG_minloglevel=2 "${build_dir}/facecap_bench_train_rate"; then
-  row "deepfake training step against torch::mm, one thread" facecap_bench_train_rate train_rate.log \
-    "^matmul peak" "^deepfake training step"
+  row "deepfake and blendshape training steps against torch::mm, one thread" facecap_bench_train_rate \
+    train_rate.log "^matmul peak" "^deepfake training step" "^blendshape Estimation" "^blendshape Tuning"
 fi
 if [[ -f "${out_demo}/metrics.json" ]]; then
   for name in metrics metrics_truerig metrics_oracle metrics_landmarks metrics_person; do
