@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "util/errors.h"
 
@@ -105,6 +106,48 @@ std::vector<float> ResampleAudio(const std::vector<float>& samples, int from_rat
     out[i] = static_cast<float>(weights != 0. ? sum / weights : 0.);
   }
   return out;
+}
+
+std::vector<char> SilentFrames(const std::vector<float>& samples, int rate, const std::vector<double>& times,
+                               double silence_db, double margin_seconds) {
+  const size_t n = times.size();
+  std::vector<char> silent(n, 0);
+  if (n == 0 || samples.empty() || rate <= 0) return silent;
+  std::vector<double> steps;
+  for (size_t i = 1; i < n; ++i) steps.push_back(times[i] - times[i - 1]);
+  double step = 0.04;
+  if (!steps.empty()) {
+    std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+    step = steps[steps.size() / 2];
+  }
+  const double duration = static_cast<double>(samples.size()) / rate;
+  std::vector<double> rms(n, -1.);  // -1: outside the sound
+  double loudest = 0.;
+  for (size_t i = 0; i < n; ++i) {
+    if (times[i] < 0. || times[i] > duration) continue;
+    const auto a = static_cast<size_t>(std::max(0., (times[i] - 0.5 * step) * rate));
+    const auto b = std::min(samples.size(), static_cast<size_t>(std::max(0., (times[i] + 0.5 * step) * rate)) + 1);
+    double sum = 0.;
+    for (size_t k = a; k < b; ++k) sum += static_cast<double>(samples[k]) * samples[k];
+    rms[i] = b > a ? std::sqrt(sum / static_cast<double>(b - a)) : 0.;
+    loudest = std::max(loudest, rms[i]);
+  }
+  if (!(loudest > 0.)) return silent;
+  const double threshold = loudest * std::pow(10., silence_db / 20.);
+  std::vector<double> loud_times;
+  for (size_t i = 0; i < n; ++i) {
+    if (rms[i] > threshold) loud_times.push_back(times[i]);
+  }
+  for (size_t i = 0; i < n; ++i) {
+    if (rms[i] < 0. || rms[i] > threshold) continue;
+    // The nearest louder frame, from the sorted loud times.
+    const auto it = std::lower_bound(loud_times.begin(), loud_times.end(), times[i]);
+    double nearest = std::numeric_limits<double>::infinity();
+    if (it != loud_times.end()) nearest = std::min(nearest, *it - times[i]);
+    if (it != loud_times.begin()) nearest = std::min(nearest, times[i] - *(it - 1));
+    silent[i] = nearest >= margin_seconds;
+  }
+  return silent;
 }
 
 }  // namespace facecap::lipsync

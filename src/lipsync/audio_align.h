@@ -31,6 +31,13 @@ AlignResult EstimateOffset(const std::vector<float>& a, const std::vector<float>
 // half the lower rate.
 std::vector<float> ResampleAudio(const std::vector<float>& samples, int from_rate, int to_rate);
 
+// The frames at `times` (seconds) when the sound is silent: the RMS of the samples over one
+// frame interval (the median step of `times`) around the frame is at least `silence_db` below
+// the loudest frame's, and no louder frame is within `margin_seconds`. A frame outside the
+// sound is not silent. All-silent sound (no frame above the threshold) gives no silent frames.
+std::vector<char> SilentFrames(const std::vector<float>& samples, int rate, const std::vector<double>& times,
+                               double silence_db, double margin_seconds);
+
 }  // namespace facecap::lipsync
 
 #endif  // FACECAP_LIPSYNC_AUDIO_ALIGN_H_

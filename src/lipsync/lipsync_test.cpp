@@ -1,6 +1,7 @@
 // Lip-sync pieces: phone-to-viseme tables, the dominance coarticulation, resampling with an
 // offset, the blend's limits, lip closures and their detection score, and the recovery of a
 // known offset between two recordings.
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -106,6 +107,34 @@ TEST(Blend, ResampleReadsTheSourceAtItsTimes) {
   EXPECT_FALSE(inside[1]);
   source_times[5] = source_times[4];
   EXPECT_THROW(ResampleAtTimes(source, source_times, times), InvalidInputError);
+}
+
+TEST(Silence, FramesFarFromSoundAreSilentAndOthersNot) {
+  // 16 kHz: 0.5 s of faint noise, 1 s of a tone, 0.5 s of faint noise; frames at 25 fps to 2.4 s.
+  constexpr int kRate = 16000;
+  std::vector<float> samples(2 * kRate);
+  Rng rng(5, 0);
+  for (size_t i = 0; i < samples.size(); ++i) {
+    const double t = static_cast<double>(i) / kRate;
+    samples[i] = t >= 0.5 && t < 1.5 ? 0.5f * static_cast<float>(std::sin(2 * M_PI * 220 * t))
+                                     : 1e-4f * static_cast<float>(rng.Normal());
+  }
+  std::vector<double> times;
+  for (int f = 0; f < 60; ++f) times.push_back(f / 25.);
+  const std::vector<char> silent = SilentFrames(samples, kRate, times, -40., 0.1);
+  ASSERT_EQ(silent.size(), times.size());
+  for (int f = 0; f < 60; ++f) {
+    const double t = times[f];
+    if (t <= 0.36 || (t >= 1.66 && t < 2.0)) EXPECT_TRUE(silent[f]) << t;      // quiet, 0.1 s from the tone
+    if (t >= 0.48 && t <= 1.52) EXPECT_FALSE(silent[f]) << t;                  // the tone
+    if ((t > 0.42 && t < 0.5) || (t > 1.5 && t < 1.58)) EXPECT_FALSE(silent[f]) << t;  // within the margin
+    if (t > 2.0) EXPECT_FALSE(silent[f]) << t;                                 // after the sound
+  }
+  // Loud: the frames at 0.52-1.48 s; silent: 0-0.40 s and 1.60-2.00 s, 11 frames each.
+  EXPECT_EQ(std::count(silent.begin(), silent.end(), 1), 22);
+  // All-zero sound has no loud frame to be below: nothing is silent.
+  const std::vector<char> none = SilentFrames(std::vector<float>(kRate, 0.f), kRate, times, -40., 0.1);
+  EXPECT_EQ(std::count(none.begin(), none.end(), 1), 0);
 }
 
 TEST(Closures, FoundAndMatchedWithinTolerance) {

@@ -25,6 +25,7 @@
 #include "stages/cli.h"
 #include "stages/registry.h"
 #include "stages/speech_file.h"
+#include "stages/track_file.h"
 #include "util/errors.h"
 #include "util/json.h"
 #include "util/log.h"
@@ -34,59 +35,6 @@ namespace {
 
 using RowMatrixF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-// What lip-sync reads of a track file: names, weights, poses and the time of every frame.
-struct TrackTimeline {
-  std::vector<std::string> names;
-  RowMatrixF weights;                 // frames x names
-  RowMatrixF pose;                    // frames x 3 (pitch, yaw, roll)
-  std::vector<int32_t> termination;   // 3: no face, the previous solution held
-  std::vector<double> times;          // seconds from the start of the video
-  std::vector<int64_t> source_index;  // the source video's frame of each row
-
-  int64_t frames() const { return weights.rows(); }
-  bool Solved(int64_t f) const { return termination[f] != 3; }
-  int Column(const std::string& name) const {
-    const auto it = std::find(names.begin(), names.end(), name);
-    return it == names.end() ? -1 : static_cast<int>(it - names.begin());
-  }
-};
-
-TrackTimeline ReadTimeline(const std::string& path) {
-  io::H5File f = io::H5File::OpenRead(path);
-  for (const char* name : {"/track/shape_names", "/track/weights", "/track/pose", "/track/termination"}) {
-    if (!f.Exists(name)) throw FileIOError(path + ": no " + std::string(name) + " (not a track file?)");
-  }
-  TrackTimeline t;
-  t.names = f.ReadStrings("/track/shape_names");
-  t.weights = f.ReadMatrix<float>("/track/weights");
-  const int64_t n = t.weights.rows();
-  if (t.weights.cols() != static_cast<int64_t>(t.names.size())) {
-    throw FileIOError(path + ": /track/weights has " + std::to_string(t.weights.cols()) +
-                      " columns for " + std::to_string(t.names.size()) + " shape names");
-  }
-  f.CheckShape("/track/pose", {n, 3});
-  t.pose = f.ReadMatrix<float>("/track/pose");
-  t.termination = f.ReadVector<int32_t>("/track/termination", n);
-  if (f.Exists("/track/timecode")) {
-    t.times = f.ReadVector<double>("/track/timecode", n);
-  } else {
-    const double fps = f.HasAttribute("/track", "fps") ? f.GetDoubleAttribute("/track", "fps") : 0.;
-    if (!(fps > 0.)) throw FileIOError(path + ": neither /track/timecode nor a frame rate (/track@fps)");
-    for (int64_t i = 0; i < n; ++i) t.times.push_back(i / fps);
-  }
-  if (f.Exists("/track/source_index")) {
-    t.source_index = f.ReadVector<int64_t>("/track/source_index", n);
-  } else {
-    for (int64_t i = 0; i < n; ++i) t.source_index.push_back(i);
-  }
-  for (int64_t i = 0; i < n; ++i) {
-    if (!std::isfinite(t.times[i]) || (i > 0 && t.times[i] <= t.times[i - 1])) {
-      throw FileIOError(path + ": the frame times are not finite and ascending at frame " + std::to_string(i));
-    }
-  }
-  if (!t.weights.allFinite()) throw FileIOError(path + ": /track/weights holds non-finite values");
-  return t;
-}
 
 // [lipsync.blend]
 struct LipsyncBlendOptions {

@@ -2,7 +2,8 @@
 // later: the clip's speech truth and sound track, the offset recovered from the two mp4s'
 // sound, the blend's limits (no cross-fade: the video's solve exactly; a full one: the mouth
 // source's controls at the aligned times), eval lipsync's rows, and lipsync track holding the
-// head frontal and every control outside the mouth at the neutral.
+// head frontal and every control outside the mouth at the neutral, zeroed on the mouth at rest.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -205,15 +206,31 @@ TEST_F(Lipsync, EvalScoresMouthUpperFaceAndClosures) {
 
 TEST_F(Lipsync, TrackSolvesTheMouthOfAFrontalViewOnly) {
   const std::string out = File("lips_solve.h5");
-  auto r = RunFacecap("lipsync track --rig " + File("lips.h5") + " --targets " + File("lips.h5") +
-                      " --count 24 --out " + out, 2);
+  const std::string args = "lipsync track --rig " + File("lips.h5") + " --targets " + File("lips.h5") +
+                           " --sound " + File("lips.wav") + " --count 24 --out " + out;
+  auto r = RunFacecap(args, 2);
   ASSERT_EQ(r.code, 0) << r.output;
   io::H5File f = io::H5File::OpenRead(out);
   const RowMatrixF w = f.ReadMatrix<float>("/track/weights");
   const RowMatrixF pose = f.ReadMatrix<float>("/track/pose");
+  const auto names = f.ReadStrings("/track/shape_names");
+  // Zeroed on the mouth at rest: the solve's weights less the median of the silent frames'
+  // (the speech starts at 0.437 s), clamped; a rerun gives the same weights.
+  const RowMatrixF solved = f.ReadMatrix<float>("/track/weights_solved");
+  const std::vector<float> bias = f.ReadVector<float>("/track/rest_bias");
+  ASSERT_EQ(static_cast<int64_t>(bias.size()), w.cols());
+  EXPECT_GE(f.GetIntAttribute("/track/rest_bias", "rest_frames"), 3);
+  for (int i = 0; i < w.rows(); ++i) {
+    for (int s = 0; s < w.cols(); ++s) {
+      EXPECT_EQ(w(i, s), std::clamp(solved(i, s) - bias[s], 0.f, 1.f)) << i << " " << s;
+    }
+  }
+  f.Close();
+  r = RunFacecap(args);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(Weights(out), w) << "a rerun calibrated the calibrated weights again";
   const RowMatrixF truth = Weights(File("lips.h5"), "/frames/weights");
   const std::vector<int> mouth = MouthColumns(File("lips.h5"));
-  const auto names = f.ReadStrings("/track/shape_names");
   const int jaw = static_cast<int>(std::find(names.begin(), names.end(), std::string("jawOpen")) - names.begin());
   Eigen::VectorXd a(24), b(24);
   for (int i = 0; i < 24; ++i) {

@@ -1,5 +1,10 @@
 #include "stages/track_file.h"
 
+#include <algorithm>
+#include <cmath>
+
+#include "util/errors.h"
+
 namespace facecap::stages {
 
 void CreateTrackDatasets(io::H5File* f, int64_t frames, int S) {
@@ -54,6 +59,48 @@ void WriteTrackRecords(io::H5File* f, const std::vector<std::string>& shape_name
   f->SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(distance_cm));
   f->SetAttribute("/camera/intrinsics", "width", static_cast<double>(c.width));
   f->SetAttribute("/camera/intrinsics", "height", static_cast<double>(c.height));
+}
+
+int TrackTimeline::Column(const std::string& name) const {
+  const auto it = std::find(names.begin(), names.end(), name);
+  return it == names.end() ? -1 : static_cast<int>(it - names.begin());
+}
+
+TrackTimeline ReadTimeline(const std::string& path) {
+  io::H5File f = io::H5File::OpenRead(path);
+  for (const char* name : {"/track/shape_names", "/track/weights", "/track/pose", "/track/termination"}) {
+    if (!f.Exists(name)) throw FileIOError(path + ": no " + std::string(name) + " (not a track file?)");
+  }
+  TrackTimeline t;
+  t.names = f.ReadStrings("/track/shape_names");
+  t.weights = f.ReadMatrix<float>("/track/weights");
+  const int64_t n = t.weights.rows();
+  if (t.weights.cols() != static_cast<int64_t>(t.names.size())) {
+    throw FileIOError(path + ": /track/weights has " + std::to_string(t.weights.cols()) +
+                      " columns for " + std::to_string(t.names.size()) + " shape names");
+  }
+  f.CheckShape("/track/pose", {n, 3});
+  t.pose = f.ReadMatrix<float>("/track/pose");
+  t.termination = f.ReadVector<int32_t>("/track/termination", n);
+  if (f.Exists("/track/timecode")) {
+    t.times = f.ReadVector<double>("/track/timecode", n);
+  } else {
+    const double fps = f.HasAttribute("/track", "fps") ? f.GetDoubleAttribute("/track", "fps") : 0.;
+    if (!(fps > 0.)) throw FileIOError(path + ": neither /track/timecode nor a frame rate (/track@fps)");
+    for (int64_t i = 0; i < n; ++i) t.times.push_back(i / fps);
+  }
+  if (f.Exists("/track/source_index")) {
+    t.source_index = f.ReadVector<int64_t>("/track/source_index", n);
+  } else {
+    for (int64_t i = 0; i < n; ++i) t.source_index.push_back(i);
+  }
+  for (int64_t i = 0; i < n; ++i) {
+    if (!std::isfinite(t.times[i]) || (i > 0 && t.times[i] <= t.times[i - 1])) {
+      throw FileIOError(path + ": the frame times are not finite and ascending at frame " + std::to_string(i));
+    }
+  }
+  if (!t.weights.allFinite()) throw FileIOError(path + ": /track/weights holds non-finite values");
+  return t;
 }
 
 }  // namespace facecap::stages

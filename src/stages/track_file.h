@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "io/hdf5.h"
 #include "render/camera.h"
 #include "stages/ingested_frames.h"
@@ -30,6 +32,25 @@ void WriteTrackRecords(io::H5File* f, const std::vector<std::string>& shape_name
 // The source camera, frame indices, timecodes and frame rate of tracked footage crops.
 void WriteSourceFrames(io::H5File* f, const IngestedFrames& ingested, const std::string& frames_path,
                        int64_t frames);
+
+
+// What lip-sync reads of a track file: names, weights, poses and the time of every frame.
+struct TrackTimeline {
+  std::vector<std::string> names;
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> weights;  // frames x names
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> pose;     // frames x 3 (pitch, yaw, roll)
+  std::vector<int32_t> termination;   // kNoTarget: no face, the previous solution held
+  std::vector<double> times;          // seconds from the start of the video
+  std::vector<int64_t> source_index;  // the source video's frame of each row
+
+  int64_t frames() const { return weights.rows(); }
+  bool Solved(int64_t f) const { return termination[f] != kNoTarget; }
+  int Column(const std::string& name) const;
+};
+
+// Reads a track file's timeline. FileIOError naming the file when a dataset is missing, the
+// shapes disagree, the times are not finite and ascending or the weights not finite.
+TrackTimeline ReadTimeline(const std::string& path);
 
 }  // namespace facecap::stages
 
