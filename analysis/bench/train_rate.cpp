@@ -99,13 +99,12 @@ void BlendshapeRate(int people, int steps, double peak) {
   for (int i = 0; i < kLarge; ++i) g->large_motion_shapes.push_back(i);
   normal(&g->template_deltas, 3ull * kShapes * kVertices);
   g->reg_weights.assign(static_cast<size_t>(kShapes) * kVertices, 1.f);
-  for (int k = 0; k < kVertices; ++k) {  // bilinear stencils at random places of the image
-    const int x = static_cast<int>(rng.UniformInt(kSize - 1)), y = static_cast<int>(rng.UniformInt(kSize - 1));
-    const float tx = static_cast<float>(rng.Uniform()), ty = static_cast<float>(rng.Uniform());
-    for (int p : {y * kSize + x, y * kSize + x + 1, (y + 1) * kSize + x, (y + 1) * kSize + x + 1}) {
-      g->sample_pixels.push_back(p);
-    }
-    for (float w : {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty}) g->sample_weights.push_back(w);
+  // Each vertex reads a 2 x 2 block of pixels spread over the image, with equal weights.
+  for (int k = 0; k < kVertices; ++k) {
+    const int p = (k * 37) % ((kSize - 1) * (kSize - 1));
+    const int corner = (p / (kSize - 1)) * kSize + p % (kSize - 1);
+    g->sample_pixels.insert(g->sample_pixels.end(), {corner, corner + 1, corner + kSize, corner + kSize + 1});
+    g->sample_weights.insert(g->sample_weights.end(), 4, 0.25f);
   }
   g->num_static_channels = 4;
   normal(&g->static_channels, 4ull * kSize * kSize);
