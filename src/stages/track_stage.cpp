@@ -11,7 +11,7 @@
 #include "lipsync/visemes.h"
 #include "render/framing.h"
 #include "stages/ingested_frames.h"
-#include "stages/lipsync_rest.h"
+#include "stages/lip_track_filter.h"
 #include "stages/track_file.h"
 #include "stages/person_file.h"
 #include "rig/arkit.h"
@@ -514,19 +514,19 @@ struct LipsyncTrackOptions : TrackOptions {
     // prior keeps the ones the image does not ask for at the neutral.
     tracker.weight_prior = 300.f;
   }
-  RestCalibrationOptions rest;
+  LipTrackFilterOptions filter;
 
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
     auto sections = TrackOptions::HelpSections();
-    sections.emplace_back("rest_calibration", "The mouth at rest");
+    sections.emplace_back("rest_calibration", "After the solve: the mouth at rest, flicker");
     return sections;
   }
   template <class V>
   void Visit(V&& v) {
     TrackOptions::Visit(v);
-    rest.Visit(v);
+    filter.Visit(v);
   }
-  bool Check(std::string* why) const { return TrackOptions::Check(why) && rest.Check(why); }
+  bool Check(std::string* why) const { return TrackOptions::Check(why) && filter.Check(why); }
 };
 
 void RunLipsyncTrack(const StageFlags& flags, AppState* state) {
@@ -535,11 +535,11 @@ void RunLipsyncTrack(const StageFlags& flags, AppState* state) {
   const auto o = ResolveStageOptions<LipsyncTrackOptions>(flags, &ctx, &resolved);
   dist::CoordinateExceptions(ctx.comm, [&] {
     std::string why;
-    if (!o.rest.Check(&why)) throw InvalidInputError("lipsync track: " + why);
+    if (!o.filter.Check(&why)) throw InvalidInputError("lipsync track: " + why);
   });
   TrackRun(o, ctx, resolved).Run();
   dist::CoordinateExceptions(ctx.comm, [&] {
-    if (ctx.comm.IsMainRank()) CalibrateRest(o.out, o.frames, o.rest);
+    if (ctx.comm.IsMainRank()) FilterLipTrack(o.out, o.frames, o.filter);
   });
 }
 
@@ -559,8 +559,9 @@ void RegisterTrack(CLI::App* app, AppState* state) {
       "The mouth of a frontal lip video (a lip-sync network's output, a second camera): "
       "ingested and translated as any footage (its frames and translations), then solved as "
       "track does with the head held frontal (its position solved) and every control outside "
-      "the mouth group (solve_controls) at the neutral, zeroed on the frames where its sound "
-      "is silent (the mouth at rest); writes a track file for lipsync blend",
+      "the mouth group (solve_controls) at the neutral; then zeroed on the frames where its "
+      "sound is silent (the mouth at rest) and one-frame flicker removed; writes a track file "
+      "for lipsync blend",
       PathKeys{{"rig", "targets", "frames", "sound"}, {{"out", OutputKind::kHdf5}}},
       RunLipsyncTrack);
 }

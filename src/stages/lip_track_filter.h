@@ -1,0 +1,52 @@
+// What lipsync track does to the lip video's solve after solving it, frame by frame:
+// - the rest calibration: where the lip video's sound is silent the mouth is at rest, so the
+//   controls the solve holds there are what the translation of a resting mouth asks for, not
+//   motion. Their median over the silent frames is subtracted from every frame (clamped to
+//   [0, 1]), as a capture is zeroed on the actor's neutral;
+// - a running median over a few frames per control: a control that moves for one frame
+//   against both neighbours (the lips parting for a frame inside a closure) is the
+//   translation's flicker; a closure of two frames stays.
+#ifndef FACECAP_STAGES_LIP_TRACK_FILTER_H_
+#define FACECAP_STAGES_LIP_TRACK_FILTER_H_
+
+#include <string>
+
+namespace facecap::stages {
+
+struct LipTrackFilterOptions {
+  bool rest_calibration = true;      // subtract the controls held at the silent frames
+  std::string sound = "";            // the lip video with its sound (empty: the frames file's source)
+  double silence_db = -40.;          // silent: the frame's sound this far below the loudest frame's
+  double rest_margin_seconds = 0.1;  // and no louder frame this close
+  int median_frames = 3;             // running median window (1: none)
+
+  template <class V>
+  void Visit(V&& v) {
+    v("rest_calibration", rest_calibration,
+      "zero the solve on the mouth at rest: the median of every control over the frames where "
+      "the lip video's sound is silent is subtracted from every frame (clamped to [0, 1])");
+    v("sound", sound,
+      "the lip video (or any file ffmpeg reads) whose sound tells the silent frames (empty: the "
+      "video that frames was ingested from, its path as ingest recorded it)");
+    v("silence_db", silence_db, "a frame is silent when its sound is this many dB below the loudest frame's");
+    v("rest_margin_seconds", rest_margin_seconds,
+      "and when no louder frame is this close (the mouth moves before and after a sound)");
+    v("median_frames", median_frames,
+      "then a running median of every control over this many frames, odd (1: none): removes a "
+      "one-frame flicker and keeps a closure of two frames (the solve's own weights stay in "
+      "/track/weights_solved)");
+  }
+  bool Check(std::string* why) const;
+};
+
+// Filters the track file `track` in place (atomically: a copy beside it, then a rename), from
+// its /track/weights_solved when an earlier filtering wrote one, so that a rerun gives the same
+// file. `frames` is the ingest output the track was solved from (empty: none). Without a sound
+// (none given and the source video has none), or with fewer than 3 silent solved frames, the
+// calibration is skipped with a warning; a sound given that cannot be read is a FileIOError.
+// Runs on the calling rank alone.
+void FilterLipTrack(const std::string& track, const std::string& frames, const LipTrackFilterOptions& o);
+
+}  // namespace facecap::stages
+
+#endif  // FACECAP_STAGES_LIP_TRACK_FILTER_H_
