@@ -112,6 +112,10 @@ bool LipTrackFilterOptions::Check(std::string* why) const {
   return true;
 }
 
+void CheckLipTrackSound(const LipTrackFilterOptions& o) {
+  if (o.rest_calibration && !o.sound.empty()) io::DecodeAudio(o.sound, kSoundRate);
+}
+
 void FilterLipTrack(const std::string& track, const std::string& frames, const LipTrackFilterOptions& o) {
   TrackTimeline t = ReadTimeline(track);
   bool had_solved = false;

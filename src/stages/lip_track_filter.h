@@ -47,6 +47,10 @@ struct LipTrackFilterOptions {
 // Runs on the calling rank alone.
 void FilterLipTrack(const std::string& track, const std::string& frames, const LipTrackFilterOptions& o);
 
+// Before the solve: a sound given (o.sound, with the calibration on) must be readable, so that a
+// bad one fails the stage before it writes anything. FileIOError naming the file.
+void CheckLipTrackSound(const LipTrackFilterOptions& o);
+
 }  // namespace facecap::stages
 
 #endif  // FACECAP_STAGES_LIP_TRACK_FILTER_H_

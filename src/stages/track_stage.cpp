@@ -536,6 +536,7 @@ void RunLipsyncTrack(const StageFlags& flags, AppState* state) {
   dist::CoordinateExceptions(ctx.comm, [&] {
     std::string why;
     if (!o.filter.Check(&why)) throw InvalidInputError("lipsync track: " + why);
+    if (ctx.comm.IsMainRank()) CheckLipTrackSound(o.filter);
   });
   TrackRun(o, ctx, resolved).Run();
   dist::CoordinateExceptions(ctx.comm, [&] {
