@@ -109,6 +109,17 @@ TEST(Blend, ResampleReadsTheSourceAtItsTimes) {
   EXPECT_THROW(ResampleAtTimes(source, source_times, times), InvalidInputError);
 }
 
+TEST(Blend, CoverageFadesOutLinearlyBeyondTheSourceSpan) {
+  // The source spans [1, 3] s; a fade of 0.5 s.
+  const std::vector<float> s = CoverageShares({0., 0.5, 0.75, 1., 2., 3., 3.25, 3.5, 4.}, 1., 3., 0.5);
+  const std::vector<float> expected = {0.f, 0.f, 0.5f, 1.f, 1.f, 1.f, 0.5f, 0.f, 0.f};
+  ASSERT_EQ(s.size(), expected.size());
+  for (size_t i = 0; i < s.size(); ++i) EXPECT_NEAR(s[i], expected[i], 1e-6f) << i;
+  // No fade: the source counts inside its span only.
+  const std::vector<float> hard = CoverageShares({0.99, 1., 3., 3.01}, 1., 3., 0.);
+  EXPECT_EQ(hard, (std::vector<float>{0.f, 1.f, 1.f, 0.f}));
+}
+
 TEST(Silence, FramesFarFromSoundAreSilentAndOthersNot) {
   // 16 kHz: 0.5 s of faint noise, 1 s of a tone, 0.5 s of faint noise; frames at 25 fps to 2.4 s.
   constexpr int kRate = 16000;

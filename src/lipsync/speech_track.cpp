@@ -101,6 +101,17 @@ Eigen::MatrixXf ResampleAtTimes(const Eigen::MatrixXf& source, const std::vector
   return out;
 }
 
+std::vector<float> CoverageShares(const std::vector<double>& times, double first, double last,
+                                  double fade_seconds) {
+  std::vector<float> shares(times.size(), 1.f);
+  for (size_t f = 0; f < times.size(); ++f) {
+    const double beyond = std::max(first - times[f], times[f] - last);
+    if (beyond <= 0.) continue;
+    shares[f] = fade_seconds > 0. ? static_cast<float>(std::max(0., 1. - beyond / fade_seconds)) : 0.f;
+  }
+  return shares;
+}
+
 Eigen::MatrixXf BlendControls(const Eigen::MatrixXf& video, const Eigen::MatrixXf& mouth,
                               const Eigen::VectorXf& crossfade) {
   if (video.rows() != mouth.rows() || video.cols() != mouth.cols() ||

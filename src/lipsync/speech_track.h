@@ -56,6 +56,11 @@ Eigen::MatrixXf MouthFromPhones(const std::vector<PhoneSegment>& phones,
 Eigen::MatrixXf ResampleAtTimes(const Eigen::MatrixXf& source, const std::vector<double>& source_times,
                                 const std::vector<double>& times, std::vector<char>* inside = nullptr);
 
+// The mouth source's share at each of `times` (seconds on its clock): 1 within [first, last],
+// falling linearly to 0 at fade_seconds beyond either end (fade_seconds 0: 0 outside).
+std::vector<float> CoverageShares(const std::vector<double>& times, double first, double last,
+                                  double fade_seconds);
+
 // (1 - c_s) video(:, s) + c_s mouth(:, s) for each shape s, c = crossfade (#shapes, in [0, 1]).
 Eigen::MatrixXf BlendControls(const Eigen::MatrixXf& video, const Eigen::MatrixXf& mouth,
                               const Eigen::VectorXf& crossfade);

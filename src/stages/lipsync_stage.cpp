@@ -47,6 +47,7 @@ struct LipsyncBlendOptions {
   double max_offset_seconds = 2.;    // alignment searches [-max, max]
   std::vector<std::string> mouth_controls = lipsync::DefaultMouthControls();
   std::vector<float> crossfade = {1.f};  // one for every mouth control, or one each
+  double edge_fade_seconds = 1.;     // the mouth source's share fades to 0 beyond its span
 
   template <class V>
   void Visit(V&& v) {
@@ -63,6 +64,9 @@ struct LipsyncBlendOptions {
     v("mouth_controls", mouth_controls, "the controls taken from the mouth source, by name");
     v("crossfade", crossfade,
       "per mouth control, the mouth source's share in [0, 1] (one value: every control)");
+    v("edge_fade_seconds", edge_fade_seconds,
+      "before the mouth source's first frame and after its last, its end frames are held and "
+      "their share falls linearly to 0 over this many seconds (0: the video's solve at once)");
   }
   bool Check(std::string* why) const {
     if (crossfade.size() != 1 && crossfade.size() != mouth_controls.size()) {
@@ -78,6 +82,7 @@ struct LipsyncBlendOptions {
       return false;
     }
     if (!(max_offset_seconds > 0.)) { *why = "max_offset_seconds must be positive"; return false; }
+    if (!(edge_fade_seconds >= 0.)) { *why = "edge_fade_seconds must be 0 or more"; return false; }
     return true;
   }
 };
@@ -140,15 +145,16 @@ void RunLipsyncBlend(const StageFlags& flags, AppState* state) {
     if (blended == 0) {
       throw FileIOError(o.mouth + " and " + o.track + " share none of the mouth controls");
     }
-    std::vector<char> inside;
-    const Eigen::MatrixXf mouth_at = lipsync::ResampleAtTimes(source, mouth_times, at, &inside);
+    const Eigen::MatrixXf mouth_at = lipsync::ResampleAtTimes(source, mouth_times, at);
     const Eigen::MatrixXf video_w = video.weights.cast<float>();
     Eigen::MatrixXf out = lipsync::BlendControls(video_w, mouth_at, crossfade);
-    // Outside the mouth source's time span the video's solve stands.
+    // Outside the mouth source's time span its end rows fade out to the video's solve.
+    const std::vector<float> shares =
+        lipsync::CoverageShares(at, mouth_times.front(), mouth_times.back(), o.edge_fade_seconds);
     int64_t covered = 0;
     for (int64_t f = 0; f < F; ++f) {
-      if (inside[f]) ++covered;
-      else out.row(f) = video_w.row(f);
+      if (shares[f] == 1.f) ++covered;
+      else out.row(f) = video_w.row(f) + shares[f] * (out.row(f) - video_w.row(f));
     }
     // The video's track file with the blended weights, written beside out and renamed.
     const std::string partial = io::H5File::PartialPath(o.out);
