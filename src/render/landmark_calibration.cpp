@@ -55,12 +55,17 @@ LandmarkCalibration CalibrateLandmarks(const rig::Rig& rig,
     if (region == "sclera" || region == "iris" || region == "pupil" || region == "mouth_interior") continue;
     for (int c = 0; c < 3; ++c) surface[rig.triangles(t, c)] = 1;
   }
+  // A landmark stays on the part of the face it moves with: a candidate's jaw skinning weight is
+  // within kJawWeightTolerance of the landmark's own vertex's.
+  const bool has_jaw = rig.jaw_weights.size() == V;
   ParallelFor(0, L, 0, [&](int l) {
     const Eigen::Vector3f centre = rig.neutral.row(rig.landmarks[l]).transpose();
     int best = rig.landmarks[l];
     double best_error = error_of(best, l);
+    const float jaw = has_jaw ? rig.jaw_weights[best] : 0.f;
     for (int vertex = 0; vertex < V; ++vertex) {
       if (!surface[vertex] || (rig.neutral.row(vertex).transpose() - centre).squaredNorm() > r2) continue;
+      if (has_jaw && std::abs(rig.jaw_weights[vertex] - jaw) > kJawWeightTolerance) continue;
       const double e = error_of(vertex, l);
       if (e < best_error) {
         best_error = e;

@@ -30,8 +30,14 @@ struct LandmarkCalibration {
   std::vector<double> error_before, error_after;
 };
 
-// For each landmark l, the vertex within `radius` (rig units, in the neutral) of rig.landmarks[l]
-// whose projections minimise the mean squared distance to the detected points, normalised per
+// How far a candidate vertex's jaw skinning weight may be from the landmark's own: the points of
+// the inner lower lip stay on the lower lip, which a closed mouth's detections cannot tell from
+// the upper one.
+inline constexpr float kJawWeightTolerance = 0.25f;
+
+// For each landmark l, the vertex within `radius` (rig units, in the neutral) of rig.landmarks[l],
+// on the skin and with a jaw skinning weight within kJawWeightTolerance of its own, whose
+// projections minimise the mean squared distance to the detected points, normalised per
 // view by the detected outer-eye-corner distance. InvalidInputError for views of another
 // vertex count, fewer than 68 detections, or no view.
 LandmarkCalibration CalibrateLandmarks(const rig::Rig& rig,
