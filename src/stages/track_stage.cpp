@@ -512,7 +512,7 @@ struct LipsyncTrackOptions : TrackOptions {
     init = "previous";
     // Many mouth controls draw nearly the same segmentation of a frontal mouth: a strong
     // prior keeps the ones the image does not ask for at the neutral.
-    tracker.weight_prior = 300.f;
+    tracker.weight_prior = 3000.f;
   }
   LipTrackFilterOptions filter;
 
