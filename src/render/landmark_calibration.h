@@ -31,8 +31,8 @@ struct LandmarkCalibration {
 };
 
 // How far a candidate vertex's jaw skinning weight may be from the landmark's own: the points of
-// the inner lower lip stay on the lower lip, which a closed mouth's detections cannot tell from
-// the upper one.
+// the inner lower lip stay on the lower lip even where a detector puts them close to the upper
+// lip's (a mouth a little open).
 inline constexpr float kJawWeightTolerance = 0.25f;
 
 // For each landmark l, the vertex within `radius` (rig units, in the neutral) of rig.landmarks[l],

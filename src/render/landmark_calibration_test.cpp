@@ -40,9 +40,9 @@ std::vector<CalibrationView> ViewsDetecting(const rig::Rig& rig, const Eigen::Ve
 }
 
 // A detector that misses a slight opening puts the inner lower lip's points (65-67) on the
-// inner upper lip's (63-61): the calibration keeps them on vertices that move with the jaw as their own
-// do, while a landmark detected at another vertex of its own part (the nose tip, point 30, one
-// vertex over) moves there exactly.
+// inner upper lip's (63-61): the calibration keeps them on vertices that move with the jaw as
+// their own do, while a landmark detected at another vertex of its own part (the nose tip,
+// point 30, one vertex over) moves there exactly.
 TEST(LandmarkCalibration, LandmarksStayOnThePartThatMovesWithThem) {
   rig::DemoHeadOptions head_options;
   head_options.num_identity_modes = 0;
