@@ -26,6 +26,7 @@
 #include "stages/cli.h"
 #include "stages/crop_framing.h"
 #include "stages/frame_loop.h"
+#include "stages/frames_file.h"
 #include "stages/frames_video.h"
 #include "stages/holdout.h"
 #include "stages/ingested_frames.h"
@@ -140,20 +141,20 @@ struct AppearanceTurntableOptions {
 
 // The per-view datasets of a turntable file.
 void CreateViewDatasets(io::H5File* f, int size, int64_t views) {
-  f->CreateFrames<uint8_t>("/frames/image", {size, size, 3}, views, 16, 1);
-  f->SetAttribute("/frames/image", "layout", std::string("view, y, x, RGB (sRGB)"));
-  f->CreateFrames<float>("/frames/uv", {size, size, 3}, views, 4);
-  f->SetAttribute("/frames/uv", "layout",
+  f->CreateFrames<uint8_t>(frames::kImage, {size, size, 3}, views, 16, 1);
+  f->SetAttribute(frames::kImage, "layout", std::string("view, y, x, RGB (sRGB)"));
+  f->CreateFrames<float>(frames::kUv, {size, size, 3}, views, 4);
+  f->SetAttribute(frames::kUv, "layout",
                   std::string("view, y, x, (u, v, coverage): U(I), the texture coordinates of "
                               "the visible surface (OBJ convention), coverage 1 on the head"));
-  f->CreateFrames<int32_t>("/frames/triangle", {size, size}, views, 4);
-  f->SetAttribute("/frames/triangle", "layout", std::string("view, y, x: visible triangle, -1 none"));
-  f->CreateFrames<float>("/frames/depth", {size, size}, views, 4);
-  f->SetAttribute("/frames/depth", "units", std::string("cm from the camera; 0 where no head"));
-  f->CreateFrames<float>("/frames/pose", {3}, views, 1024);
-  f->SetAttribute("/frames/pose", "columns", std::string("pitch, yaw, roll (rad), in the view's camera"));
-  f->CreateFrames<float>("/frames/camera", {4}, views, 1024);
-  f->SetAttribute("/frames/camera", "columns", std::string("fx, fy, cx, cy (pixels) of the view"));
+  f->CreateFrames<int32_t>(frames::kTriangle, {size, size}, views, 4);
+  f->SetAttribute(frames::kTriangle, "layout", std::string("view, y, x: visible triangle, -1 none"));
+  f->CreateFrames<float>(frames::kDepth, {size, size}, views, 4);
+  f->SetAttribute(frames::kDepth, "units", std::string("cm from the camera; 0 where no head"));
+  f->CreateFrames<float>(frames::kPose, {3}, views, 1024);
+  f->SetAttribute(frames::kPose, "columns", std::string("pitch, yaw, roll (rad), in the view's camera"));
+  f->CreateFrames<float>(frames::kCamera, {4}, views, 1024);
+  f->SetAttribute(frames::kCamera, "columns", std::string("fx, fy, cx, cy (pixels) of the view"));
 }
 
 // Per-thread rendering state.
@@ -279,12 +280,12 @@ class ViewsRun {
         source_.ReadImage(views[k], &image);
         rendered = image.data;
       }
-      f.WriteFrames<uint8_t>("/frames/image", views[k], 1, rendered.data());
-      f.WriteFrames<float>("/frames/uv", views[k], 1, r.GetVector<float>().data());
-      f.WriteFrames<int32_t>("/frames/triangle", views[k], 1, r.GetVector<int32_t>().data());
-      f.WriteFrames<float>("/frames/depth", views[k], 1, r.GetVector<float>().data());
-      f.WriteFrames<float>("/frames/pose", views[k], 1, r.GetVector<float>().data());
-      f.WriteFrames<float>("/frames/camera", views[k], 1, r.GetVector<float>().data());
+      f.WriteFrames<uint8_t>(frames::kImage, views[k], 1, rendered.data());
+      f.WriteFrames<float>(frames::kUv, views[k], 1, r.GetVector<float>().data());
+      f.WriteFrames<int32_t>(frames::kTriangle, views[k], 1, r.GetVector<int32_t>().data());
+      f.WriteFrames<float>(frames::kDepth, views[k], 1, r.GetVector<float>().data());
+      f.WriteFrames<float>(frames::kPose, views[k], 1, r.GetVector<float>().data());
+      f.WriteFrames<float>(frames::kCamera, views[k], 1, r.GetVector<float>().data());
     }
     io::DoneMask mask(&f, source_.NumViews());
     mask.MarkDone(views);
@@ -299,7 +300,7 @@ class ViewsRun {
     for (int64_t k = 0; k < count; ++k) {
       const int64_t view = count == 1 ? 0 : k * (n - 1) / (count - 1);
       Image8 tile(source_.Size(), source_.Size(), 3);
-      f.ReadFrames<uint8_t>("/frames/image", view, 1, tile.data.data());
+      f.ReadFrames<uint8_t>(frames::kImage, view, 1, tile.data.data());
       tiles.push_back(std::move(tile));
     }
     render::ContactSheetOptions sheet;
@@ -424,7 +425,7 @@ class TrackedFramesSource : public ViewSource {
       : track_(o.track, rig), path_(o.frames) {
     io::H5File f = io::H5File::OpenRead(o.frames);
     dataset_ = o.dataset;
-    if (dataset_.empty()) dataset_ = f.Exists("/frames/crop") ? "/frames/crop" : "/frames/image";
+    if (dataset_.empty()) dataset_ = f.Exists(frames::kCrop) ? frames::kCrop : frames::kImage;
     const io::Shape shape = f.CheckShape(dataset_, {-1, -1, -1, 3});
     if (shape[1] != shape[2]) throw FileIOError(o.frames + ": " + dataset_ + " is not square");
     if (shape[0] != track_.NumFrames()) {
@@ -542,14 +543,14 @@ struct AppearanceGatherOptions {
 std::vector<appearance::Particle> ReadParticles(const AppearanceGatherOptions& o,
                                                 const std::vector<int32_t>& charts) {
   io::H5File views = io::H5File::OpenRead(o.views);
-  const io::Shape uv_shape = views.CheckShape("/frames/uv", {-1, -1, -1, 3});
+  const io::Shape uv_shape = views.CheckShape(frames::kUv, {-1, -1, -1, 3});
   const int64_t count = uv_shape[0];
   const int size = static_cast<int>(uv_shape[1]);
-  views.CheckShape("/frames/triangle", {count, size, size});
+  views.CheckShape(frames::kTriangle, {count, size, size});
   const std::string images_path = o.images.empty() ? o.views : o.images;
   io::H5File images = o.images.empty() ? io::H5File::OpenRead(o.views) : io::H5File::OpenRead(o.images);
   std::string dataset = o.dataset;
-  if (dataset.empty()) dataset = images.Exists("/frames/translated") ? "/frames/translated" : "/frames/image";
+  if (dataset.empty()) dataset = images.Exists(frames::kTranslated) ? frames::kTranslated : frames::kImage;
   const io::Shape image_shape = images.CheckShape(dataset, {-1, -1, -1, 3});
   if (image_shape[0] != count) {
     throw FileIOError(images_path + ": " + dataset + " has " + std::to_string(image_shape[0]) +
@@ -562,8 +563,8 @@ std::vector<appearance::Particle> ReadParticles(const AppearanceGatherOptions& o
   for (int64_t v = 0; v < count; ++v) {
     if (IsHeldOut(v, o.holdout_every)) continue;
     images.ReadFrames<uint8_t>(dataset, v, 1, image.data.data());
-    views.ReadFrames<float>("/frames/uv", v, 1, uv.data.data());
-    views.ReadFrames<int32_t>("/frames/triangle", v, 1, triangles.data.data());
+    views.ReadFrames<float>(frames::kUv, v, 1, uv.data.data());
+    views.ReadFrames<int32_t>(frames::kTriangle, v, 1, triangles.data.data());
     render::Image8ToLinear(image, true, &linear);
     appearance::SilhouetteInterior(uv, o.edge_margin_px, &interior);
     appearance::AppendImageParticles(render::ResampleBilinear(linear, size, size), uv, triangles, charts, &interior,

@@ -22,7 +22,9 @@
 #include "lipsync/visemes.h"
 #include "rig/compare.h"
 #include "rig/pose.h"
+#include "stages/camera_file.h"
 #include "stages/cli.h"
+#include "stages/frames_file.h"
 #include "stages/registry.h"
 #include "stages/speech_file.h"
 #include "stages/track_file.h"
@@ -376,15 +378,15 @@ void RunEvalLipsync(const StageFlags& flags, AppState* state) {
   LipsyncTruth truth;
   {
     io::H5File f = io::H5File::OpenRead(o.truth);
-    for (const char* name : {"/frames/weights", "/frames/shape_names", "/frames/pose", "/rig/neutral"}) {
+    for (const char* name : {frames::kWeights, frames::kShapeNames, frames::kPose, "/rig/neutral"}) {
       if (!f.Exists(name)) throw FileIOError(o.truth + ": no " + std::string(name) + " (not a clip from synth clip?)");
     }
     truth.rig = io::ReadRig(f);
-    truth.names = f.ReadStrings("/frames/shape_names");
-    truth.weights = f.ReadMatrix<float>("/frames/weights");
-    truth.pose = f.ReadMatrix<float>("/frames/pose");
-    truth.fps = f.HasAttribute("/camera/intrinsics", "fps") ? f.GetDoubleAttribute("/camera/intrinsics", "fps") : 0.;
-    if (!(truth.fps > 0.)) throw FileIOError(o.truth + ": no frame rate (/camera/intrinsics@fps)");
+    truth.names = f.ReadStrings(frames::kShapeNames);
+    truth.weights = f.ReadMatrix<float>(frames::kWeights);
+    truth.pose = f.ReadMatrix<float>(frames::kPose);
+    truth.fps = HasCamera(f) ? ReadCamera(f).fps.value_or(0.) : 0.;
+    if (!(truth.fps > 0.)) throw FileIOError(o.truth + ": no frame rate (" + kCameraPath + "@fps)");
     if (truth.names.size() != static_cast<size_t>(truth.rig.NumShapes()) ||
         truth.weights.cols() != truth.rig.NumShapes()) {
       throw FileIOError(o.truth + ": its weights, shape names and rig do not agree");

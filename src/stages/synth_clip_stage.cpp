@@ -12,8 +12,10 @@
 #include "io/texture_file.h"
 #include "render/contact_sheet.h"
 #include "rig/demo_head.h"
+#include "stages/camera_file.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
+#include "stages/frames_file.h"
 #include "stages/frames_video.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
@@ -136,23 +138,23 @@ struct ClipThread {
 
 // The per-frame datasets of a clip in a new or continued output.
 void CreateClipDatasets(io::H5File* f, int H, int W, int S, int64_t frames) {
-  f->CreateFrames<uint8_t>("/frames/image", {H, W, 3}, frames, 1);
-  f->SetAttribute("/frames/image", "layout", std::string("frame, y, x, RGB (sRGB)"));
-  f->CreateFrames<uint8_t>("/frames/segmentation", {H, W, 3}, frames, 1);
-  f->SetAttribute("/frames/segmentation", "layout",
+  f->CreateFrames<uint8_t>(frames::kImage, {H, W, 3}, frames, 1);
+  f->SetAttribute(frames::kImage, "layout", std::string("frame, y, x, RGB (sRGB)"));
+  f->CreateFrames<uint8_t>(frames::kSegmentation, {H, W, 3}, frames, 1);
+  f->SetAttribute(frames::kSegmentation, "layout",
                   std::string("frame, y, x, RGB; region colours of /regions/colors"));
-  f->CreateFrames<float>("/frames/pose", {3}, frames, 1024);
-  f->SetAttribute("/frames/pose", "columns", std::string("pitch, yaw, roll"));
-  f->SetAttribute("/frames/pose", "units", std::string("rad"));
-  f->CreateFrames<float>("/frames/translation", {3}, frames, 1024);
-  f->SetAttribute("/frames/translation", "units",
+  f->CreateFrames<float>(frames::kPose, {3}, frames, 1024);
+  f->SetAttribute(frames::kPose, "columns", std::string("pitch, yaw, roll"));
+  f->SetAttribute(frames::kPose, "units", std::string("rad"));
+  f->CreateFrames<float>(frames::kTranslation, {3}, frames, 1024);
+  f->SetAttribute(frames::kTranslation, "units",
                   std::string("cm, camera space (x right, y up, camera looks down -z)"));
-  f->CreateFrames<float>("/frames/weights", {S}, frames, 256);
-  f->CreateFrames<float>("/frames/landmarks", {kNumLandmarks, 2}, frames, 256);
-  f->SetAttribute("/frames/landmarks", "units", std::string("pixels (x right, y down), iBUG 68"));
-  f->CreateFrames<uint8_t>("/frames/landmark_visible", {kNumLandmarks}, frames, 1024);
-  f->CreateFrames<float>("/frames/degradation", {kNumDegradationColumns}, frames, 1024);
-  f->SetAttribute("/frames/degradation", "columns",
+  f->CreateFrames<float>(frames::kWeights, {S}, frames, 256);
+  f->CreateFrames<float>(frames::kLandmarks, {kNumLandmarks, 2}, frames, 256);
+  f->SetAttribute(frames::kLandmarks, "units", std::string("pixels (x right, y down), iBUG 68"));
+  f->CreateFrames<uint8_t>(frames::kLandmarkVisible, {kNumLandmarks}, frames, 1024);
+  f->CreateFrames<float>(frames::kDegradation, {kNumDegradationColumns}, frames, 1024);
+  f->SetAttribute(frames::kDegradation, "columns",
                   std::string("exposure, defocus_sigma_px, motion_blur_px, motion_blur_angle_rad, "
                               "noise_sigma_levels, jpeg_quality (0: none)"));
 }
@@ -161,7 +163,7 @@ void CreateClipDatasets(io::H5File* f, int H, int W, int S, int64_t frames) {
 void WriteShapesAndRegions(io::H5File* f, const rig::Rig& person) {
   std::vector<std::string> names;
   for (const auto& s : person.shapes) names.push_back(s.name);
-  f->WriteStrings("/frames/shape_names", names);
+  f->WriteStrings(frames::kShapeNames, names);
   std::vector<std::string> region_names;
   Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> colors(person.regions.size(), 3);
   for (size_t r = 0; r < person.regions.size(); ++r) {
@@ -264,12 +266,12 @@ class SynthClipRun {
     const render::Camera& camera = renderer_->camera();
     const int H = co_.size, W = co_.size;
     WriteShapesAndRegions(f, person_);
-    f->WriteVector<double>("/camera/intrinsics", {camera.fx, camera.fy, camera.cx, camera.cy});
-    f->SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
-    f->SetAttribute("/camera/intrinsics", "width", static_cast<int64_t>(W));
-    f->SetAttribute("/camera/intrinsics", "height", static_cast<int64_t>(H));
-    f->SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(renderer_->distance()));
-    f->SetAttribute("/camera/intrinsics", "fps", static_cast<double>(co_.fps));
+    CameraRecord record = CameraRecord::Of(camera);
+    record.width = W;
+    record.height = H;
+    record.distance_cm = renderer_->distance();
+    record.fps = co_.fps;
+    WriteCamera(f, record);
     WriteIdentity(f, person_, co_, renderer_->colors());
     io::WriteColorTexture(f, io::kTrueAlbedoPath, renderer_->albedo_texture());
     io::WriteRig(person_, f, "/rig");
@@ -353,14 +355,14 @@ class SynthClipRun {
         append(&vis, r.GetVector<uint8_t>());
         append(&degradation, r.GetVector<float>());
       }
-      f.WriteFrames<uint8_t>("/frames/image", frames[k], n, image.data());
-      f.WriteFrames<uint8_t>("/frames/segmentation", frames[k], n, seg.data());
-      f.WriteFrames<float>("/frames/pose", frames[k], n, angles.data());
-      f.WriteFrames<float>("/frames/translation", frames[k], n, translation.data());
-      f.WriteFrames<float>("/frames/weights", frames[k], n, weights.data());
-      f.WriteFrames<float>("/frames/landmarks", frames[k], n, xy.data());
-      f.WriteFrames<uint8_t>("/frames/landmark_visible", frames[k], n, vis.data());
-      f.WriteFrames<float>("/frames/degradation", frames[k], n, degradation.data());
+      f.WriteFrames<uint8_t>(frames::kImage, frames[k], n, image.data());
+      f.WriteFrames<uint8_t>(frames::kSegmentation, frames[k], n, seg.data());
+      f.WriteFrames<float>(frames::kPose, frames[k], n, angles.data());
+      f.WriteFrames<float>(frames::kTranslation, frames[k], n, translation.data());
+      f.WriteFrames<float>(frames::kWeights, frames[k], n, weights.data());
+      f.WriteFrames<float>(frames::kLandmarks, frames[k], n, xy.data());
+      f.WriteFrames<uint8_t>(frames::kLandmarkVisible, frames[k], n, vis.data());
+      f.WriteFrames<float>(frames::kDegradation, frames[k], n, degradation.data());
       k = end;
     }
     io::DoneMask mask(&f, co_.frames);
@@ -454,11 +456,11 @@ void RunSynthSheet(const StageFlags& flags, AppState* state) {
   const auto o = ResolveStageOptions<SynthSheetOptions>(flags, &ctx, &resolved);
   if (!ctx.comm.IsMainRank()) return;
   io::H5File f = io::H5File::OpenRead(o.clip);
-  for (const char* name : {"/frames/image", "/frames/segmentation", "/frames/landmarks",
-                           "/frames/landmark_visible"}) {
+  for (const char* name : {frames::kImage, frames::kSegmentation, frames::kLandmarks,
+                           frames::kLandmarkVisible}) {
     if (!f.Exists(name)) throw FileIOError(o.clip + ": no " + std::string(name) + " (not a clip from synth clip?)");
   }
-  const io::Shape shape = f.DatasetShape("/frames/image");
+  const io::Shape shape = f.DatasetShape(frames::kImage);
   const int64_t num_frames = shape[0];
   const int H = static_cast<int>(shape[1]), W = static_cast<int>(shape[2]);
   const int shown = static_cast<int>(std::min<int64_t>(o.frames, num_frames));
@@ -466,14 +468,14 @@ void RunSynthSheet(const StageFlags& flags, AppState* state) {
   for (int i = 0; i < shown; ++i) {
     const int64_t frame = shown == 1 ? 0 : (i * (num_frames - 1)) / (shown - 1);
     Image8 image(W, H, 3), seg(W, H, 3);
-    f.ReadFrames<uint8_t>("/frames/image", frame, 1, image.data.data());
-    f.ReadFrames<uint8_t>("/frames/segmentation", frame, 1, seg.data.data());
+    f.ReadFrames<uint8_t>(frames::kImage, frame, 1, image.data.data());
+    f.ReadFrames<uint8_t>(frames::kSegmentation, frame, 1, seg.data.data());
     Image8 seg_big = synth::UpscaleNearest(seg, o.scale);
     if (o.landmarks) {
       std::vector<float> xy(kNumLandmarks * 2);
       std::vector<uint8_t> visible(kNumLandmarks);
-      f.ReadFrames<float>("/frames/landmarks", frame, 1, xy.data());
-      f.ReadFrames<uint8_t>("/frames/landmark_visible", frame, 1, visible.data());
+      f.ReadFrames<float>(frames::kLandmarks, frame, 1, xy.data());
+      f.ReadFrames<uint8_t>(frames::kLandmarkVisible, frame, 1, visible.data());
       for (int l = 0; l < kNumLandmarks; ++l) {
         if (!visible[l]) continue;
         const int cx = static_cast<int>(xy[2 * l] * o.scale), cy = static_cast<int>(xy[2 * l + 1] * o.scale);

@@ -11,6 +11,7 @@
 
 #include "io/hdf5.h"
 #include "stages/cli.h"
+#include "stages/frames_file.h"
 #include "stages/ingested_frames.h"
 #include "stages/registry.h"
 #include "util/errors.h"
@@ -75,19 +76,19 @@ void RunSynthCrops(const StageFlags& flags, AppState* state) {
   if (!o.Check(&why)) throw InvalidInputError("synth crops: " + why);
   io::H5File clip = io::H5File::OpenRead(o.clip);
   io::H5File frames = io::H5File::OpenRead(o.frames);
-  const io::Shape seg = clip.CheckShape("/frames/segmentation", {-1, -1, -1, 3});
+  const io::Shape seg = clip.CheckShape(frames::kSegmentation, {-1, -1, -1, 3});
   if (!clip.Exists("/regions/colors") || !clip.Exists("/regions/names")) {
     throw FileIOError(o.clip + ": no /regions (not a synth clip output)");
   }
-  const io::Shape crop = frames.CheckShape("/frames/crop", {-1, -1, -1, 3});
+  const io::Shape crop = frames.CheckShape(frames::kCrop, {-1, -1, -1, 3});
   const int64_t n = crop[0];
   const int size = static_cast<int>(crop[1]);
-  frames.CheckShape("/frames/crop_transform", {n, 2, 3});
-  frames.CheckShape("/frames/found", {n});
-  frames.CheckShape("/frames/source_index", {n});
-  const std::vector<int64_t> source = frames.ReadVector<int64_t>("/frames/source_index", n);
-  const std::vector<uint8_t> found = frames.ReadVector<uint8_t>("/frames/found", n);
-  const std::vector<float> transform = frames.Read<float>("/frames/crop_transform", {n, 2, 3});
+  frames.CheckShape(frames::kCropTransform, {n, 2, 3});
+  frames.CheckShape(frames::kFound, {n});
+  frames.CheckShape(frames::kSourceIndex, {n});
+  const std::vector<int64_t> source = frames.ReadVector<int64_t>(frames::kSourceIndex, n);
+  const std::vector<uint8_t> found = frames.ReadVector<uint8_t>(frames::kFound, n);
+  const std::vector<float> transform = frames.Read<float>(frames::kCropTransform, {n, 2, 3});
   for (int64_t k = 0; k < n; ++k) {
     if (source[k] < 0 || source[k] >= seg[0]) {
       throw FileIOError(o.frames + ": frame " + std::to_string(k) + " comes from source frame " +
@@ -98,16 +99,16 @@ void RunSynthCrops(const StageFlags& flags, AppState* state) {
   const int W = static_cast<int>(seg[2]), H = static_cast<int>(seg[1]);
   io::H5File f = io::H5File::CreateAtomic(o.out);
   f.WriteProvenance(MakeProvenance(ctx, "synth crops", resolved));
-  f.CreateFrames<uint8_t>("/frames/image", {size, size, 3}, n, 8);
-  f.SetAttribute("/frames/image", "layout", std::string("frame, y, x, RGB: ingest's crops"));
-  f.CreateFrames<uint8_t>("/frames/segmentation", {size, size, 3}, n, 8);
-  f.SetAttribute("/frames/segmentation", "layout",
+  f.CreateFrames<uint8_t>(frames::kImage, {size, size, 3}, n, 8);
+  f.SetAttribute(frames::kImage, "layout", std::string("frame, y, x, RGB: ingest's crops"));
+  f.CreateFrames<uint8_t>(frames::kSegmentation, {size, size, 3}, n, 8);
+  f.SetAttribute(frames::kSegmentation, "layout",
                  std::string("frame, y, x, RGB: the clip's segmentation through each crop "
                              "transform (nearest); region colours of /regions/colors"));
-  f.WriteVector("/frames/found", found);
-  f.SetAttribute("/frames/found", "meaning", std::string("1: ingest found the face (frames with 0 are not used)"));
-  f.Write<float>("/frames/crop_transform", {n, 2, 3}, transform.data());
-  f.WriteVector("/frames/source_index", source);
+  f.WriteVector(frames::kFound, found);
+  f.SetAttribute(frames::kFound, "meaning", std::string("1: ingest found the face (frames with 0 are not used)"));
+  f.Write<float>(frames::kCropTransform, {n, 2, 3}, transform.data());
+  f.WriteVector(frames::kSourceIndex, source);
   const std::vector<std::string> region_names = clip.ReadStrings("/regions/names");
   f.WriteStrings("/regions/names", region_names);
   const auto colors =
@@ -122,13 +123,13 @@ void RunSynthCrops(const StageFlags& flags, AppState* state) {
     const int64_t count = std::min(kBlock, n - first);
     crops.resize(count * crop_bytes);
     warped.assign(count * crop_bytes, 0);
-    frames.ReadFrames<uint8_t>("/frames/crop", first, count, crops.data());
+    frames.ReadFrames<uint8_t>(frames::kCrop, first, count, crops.data());
     // The source frames of the block, in one read when they are consecutive.
     const int64_t lo = source[first], hi = source[first + count - 1];
     const bool consecutive = hi - lo == count - 1;
     if (consecutive) {
       segmentation.resize(count * frame_bytes);
-      clip.ReadFrames<uint8_t>("/frames/segmentation", lo, count, segmentation.data());
+      clip.ReadFrames<uint8_t>(frames::kSegmentation, lo, count, segmentation.data());
     } else {
       segmentation.resize(frame_bytes);
     }
@@ -136,11 +137,11 @@ void RunSynthCrops(const StageFlags& flags, AppState* state) {
       const int64_t k = first + j;
       if (!found[k]) continue;
       const uint8_t* seg = segmentation.data() + (consecutive ? j * frame_bytes : 0);
-      if (!consecutive) clip.ReadFrames<uint8_t>("/frames/segmentation", source[k], 1, segmentation.data());
+      if (!consecutive) clip.ReadFrames<uint8_t>(frames::kSegmentation, source[k], 1, segmentation.data());
       WarpNearest(seg, W, H, &transform[6 * k], size, warped.data() + j * crop_bytes);
     }
-    f.WriteFrames<uint8_t>("/frames/image", first, count, crops.data());
-    f.WriteFrames<uint8_t>("/frames/segmentation", first, count, warped.data());
+    f.WriteFrames<uint8_t>(frames::kImage, first, count, crops.data());
+    f.WriteFrames<uint8_t>(frames::kSegmentation, first, count, warped.data());
     progress.Update(first + count);
   }
   progress.Finish();

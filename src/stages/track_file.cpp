@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "stages/camera_file.h"
 #include "util/errors.h"
 
 namespace facecap::stages {
@@ -32,8 +33,8 @@ void CreateTrackDatasets(io::H5File* f, int64_t frames, int S) {
 
 void WriteSourceFrames(io::H5File* f, const IngestedFrames& ingested, const std::string& frames_path,
                        int64_t frames) {
-  f->SetAttribute("/camera/intrinsics", "fov_deg", ingested.fov_deg());
-  f->SetAttribute("/camera/intrinsics", "meaning",
+  f->SetAttribute(kCameraPath, "fov_deg", ingested.fov_deg());
+  f->SetAttribute(kCameraPath, "meaning",
                   std::string("the source video's camera as assumed by ingest: poses are in "
                               "its space, landmarks project to source pixels"));
   f->SetAttribute("/track", "frames", frames_path);
@@ -54,11 +55,9 @@ void WriteSourceFrames(io::H5File* f, const IngestedFrames& ingested, const std:
 void WriteTrackRecords(io::H5File* f, const std::vector<std::string>& shape_names,
                        const render::Camera& c, float distance_cm) {
   f->WriteStrings("/track/shape_names", shape_names);
-  f->WriteVector<double>("/camera/intrinsics", {c.fx, c.fy, c.cx, c.cy});
-  f->SetAttribute("/camera/intrinsics", "columns", std::string("fx, fy, cx, cy (pixels)"));
-  f->SetAttribute("/camera/intrinsics", "distance_cm", static_cast<double>(distance_cm));
-  f->SetAttribute("/camera/intrinsics", "width", static_cast<double>(c.width));
-  f->SetAttribute("/camera/intrinsics", "height", static_cast<double>(c.height));
+  CameraRecord record = CameraRecord::Of(c);
+  record.distance_cm = distance_cm;
+  WriteCamera(f, record);
 }
 
 int TrackTimeline::Column(const std::string& name) const {

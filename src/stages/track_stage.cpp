@@ -10,6 +10,8 @@
 #include "io/rig_io.h"
 #include "lipsync/visemes.h"
 #include "render/framing.h"
+#include "stages/camera_file.h"
+#include "stages/frames_file.h"
 #include "stages/ingested_frames.h"
 #include "stages/lip_track_filter.h"
 #include "stages/track_file.h"
@@ -41,7 +43,7 @@ struct TrackOptions {
   std::string targets = "targets.h5";     // file of segmentation targets
   std::string out = "track.h5";           // output file
   // Frame dataset of target images [N, H, W, 3] u8; when absent, /samples/segmentation.
-  std::string targets_dataset = "/frames/segmentation";
+  std::string targets_dataset = frames::kSegmentation;
   // Ingest output whose crops the targets translate (real footage, or a synthetic clip's
   // video): each frame is tracked in its crop's camera (the source camera assumed by ingest,
   // seen through the crop transform), the detected landmarks initialise each segment and
@@ -142,21 +144,16 @@ TargetsInfo InspectTargets(const std::string& path, const std::string& dataset, 
   info.width = static_cast<int>(shape[2]);
   info.camera.width = info.width;
   info.camera.height = info.height;
-  if (!f.Exists("/camera/intrinsics")) {
+  if (!HasCamera(f)) {
     if (!need_camera) return info;
-    throw FileIOError(path + ": no /camera/intrinsics (name the ingest output with frames when "
+    throw FileIOError(path + ": no " + kCameraPath + " (name the ingest output with frames when "
                       "the targets translate its crops)");
   }
-  const std::vector<double> k = f.ReadVector<double>("/camera/intrinsics", 4);
+  const CameraRecord camera = ReadCamera(f);
+  info.camera = camera.ToCamera();
   info.camera.width = info.width;
   info.camera.height = info.height;
-  info.camera.fx = static_cast<float>(k[0]);
-  info.camera.fy = static_cast<float>(k[1]);
-  info.camera.cx = static_cast<float>(k[2]);
-  info.camera.cy = static_cast<float>(k[3]);
-  if (f.HasAttribute("/camera/intrinsics", "distance_cm")) {
-    info.distance_cm = static_cast<float>(f.GetDoubleAttribute("/camera/intrinsics", "distance_cm"));
-  }
+  if (camera.distance_cm) info.distance_cm = static_cast<float>(*camera.distance_cm);
   const std::string group = info.images.substr(0, info.images.rfind('/'));
   info.landmarks = FirstExisting(f, {group + "/landmarks"});
   info.visible = info.landmarks.empty() ? "" : FirstExisting(f, {group + "/landmark_visible"});
@@ -341,9 +338,8 @@ class TrackRun {
       WriteSourceFrames(f, ingested_, o_.frames, frames_);
     } else if (io::H5File::IsHdf5(o_.targets)) {
       io::H5File t = io::H5File::OpenRead(o_.targets);
-      if (t.HasAttribute("/camera/intrinsics", "fps")) {
-        f->SetAttribute("/track", "fps", t.GetDoubleAttribute("/camera/intrinsics", "fps"));
-      }
+      const std::optional<double> fps = HasCamera(t) ? ReadCamera(t).fps : std::nullopt;
+      if (fps) f->SetAttribute("/track", "fps", *fps);
     }
   }
 

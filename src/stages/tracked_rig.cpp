@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "io/hdf5.h"
+#include "stages/camera_file.h"
 #include "util/errors.h"
 
 namespace facecap::stages {
@@ -44,14 +45,15 @@ TrackedRig::TrackedRig(const std::string& path, const rig::Rig& rig) : num_rig_s
     }
     shape_of_[t] = rig.ShapeIndex(names[t]);
   }
-  intrinsics_ = track.ReadVector<double>("/camera/intrinsics", 4);
+  const CameraRecord camera = ReadCamera(track);
+  intrinsics_ = {camera.fx, camera.fy, camera.cx, camera.cy};
   // Pixel quantities beyond 1e9 are not those of an image; the scaled cameras stay finite.
   const auto within = [](double x) { return std::isfinite(x) && std::abs(x) <= 1e9; };
   if (!std::all_of(intrinsics_.begin(), intrinsics_.end(), within) || !(intrinsics_[0] > 0.) ||
       !(intrinsics_[1] > 0.)) {
     fail("/camera/intrinsics (fx, fy, cx, cy) must be finite pixels with positive focal lengths");
   }
-  has_width_ = track.HasAttribute("/camera/intrinsics", "width");
+  has_width_ = camera.width.has_value();
   if (track.HasAttribute("/track", "fps")) fps_ = track.GetDoubleAttribute("/track", "fps");
   if (!std::isfinite(fps_) || fps_ < 0.) fps_ = 0.;
   if (track.Exists("/track/source_index")) {
@@ -65,7 +67,7 @@ TrackedRig::TrackedRig(const std::string& path, const rig::Rig& rig) : num_rig_s
       }
     }
   }
-  width_ = has_width_ ? track.GetDoubleAttribute("/camera/intrinsics", "width") : 2.0 * intrinsics_[2];
+  width_ = camera.width.value_or(2.0 * intrinsics_[2]);
   if (!(width_ >= 1. && width_ <= 1e9)) {
     fail(has_width_ ? "/camera/intrinsics@width " + std::to_string(width_) + " is not a width in pixels"
                     : "/camera/intrinsics has no width attribute and its cx " +
