@@ -176,7 +176,59 @@ std::string Config::OriginOfCheck(const std::string& table, const std::string& w
   while (end < why.size() && in_key(why[end])) ++end;
   const std::string key = why.substr(0, end);
   if (!key.empty() && Has(table, key)) return OriginOf(table, key);
+  for (const std::string& group : Tables(table)) {
+    if (!key.empty() && Has(table + "." + group, key)) return OriginOf(table + "." + group, key);
+  }
   return OriginsOf(table);
+}
+
+std::pair<std::string, std::string> OptionPlace(const std::string& table, const std::string& key) {
+  const size_t dot = key.find('.');
+  if (dot == std::string::npos) return {table, key};
+  return {table + "." + key.substr(0, dot), key.substr(dot + 1)};
+}
+
+void CheckOptionKeys(const Config& config, const std::string& table,
+                     const std::vector<std::string>& keys) {
+  // Valid names per table (the stage's own first), in Visit order.
+  std::vector<std::pair<std::string, std::vector<std::string>>> valid = {{table, {}}};
+  for (const std::string& key : keys) {
+    const auto [where, name] = OptionPlace(table, key);
+    auto it = std::find_if(valid.begin(), valid.end(), [&](const auto& v) { return v.first == where; });
+    if (it == valid.end()) it = valid.insert(valid.end(), {where, {}});
+    it->second.push_back(name);
+  }
+  const auto join = [](const std::vector<std::string>& names) {
+    std::string list;
+    for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+    return list;
+  };
+  std::vector<std::string> groups;
+  for (size_t i = 1; i < valid.size(); ++i) groups.push_back("[" + valid[i].first + "]");
+  for (const auto& [where, names] : valid) {
+    for (const std::string& key : config.Keys(where)) {
+      if (std::find(names.begin(), names.end(), key) != names.end()) continue;
+      std::string hint;
+      for (const auto& [other, other_names] : valid) {
+        if (other != where && std::find(other_names.begin(), other_names.end(), key) != other_names.end()) {
+          hint = "; '" + key + "' belongs in [" + other + "]";
+        }
+      }
+      throw InvalidInputError(config.OriginOf(where, key) + ": unknown key '" + key + "' in [" +
+                              where + "]" + hint + "; valid keys: " + join(names) +
+                              (where == table && !groups.empty() ? "; and the tables " + join(groups) : ""));
+    }
+    for (const std::string& sub_table : config.Tables(where)) {
+      const std::string path = where + "." + sub_table;
+      const bool is_group = where == table && std::any_of(valid.begin(), valid.end(),
+                                                          [&](const auto& v) { return v.first == path; });
+      if (is_group) continue;
+      throw InvalidInputError(config.OriginsOf(path) + ": unknown table [" + path + "]" +
+                              (where == table && !groups.empty()
+                                   ? "; the option groups of [" + table + "] are " + join(groups)
+                                   : "; [" + where + "] has no sub-tables"));
+    }
+  }
 }
 
 void Config::ForgetOrigin(const std::string& table, const std::string& key) {

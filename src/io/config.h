@@ -8,11 +8,15 @@
 //     bool Check(std::string* why) const;
 //   };
 //
-// LoadOptions() fills a struct from a table (an unknown key is an error that lists the valid
-// keys; a value of the wrong type names the key and the type expected); StoreOptions() writes
-// the resolved values back, so the resolved configuration can be stored in every output.
-// CheckTables() rejects a table that no stage reads. Every error names where the value came
-// from: the job file, `--set`, or the flag. toml++ stays inside config.cpp.
+// A key "group.name" groups an option by concern: it lives in the stage table's sub-table
+// ([deepfake.train.loss] name = ...), while its flag stays --name.
+//
+// LoadOptions() fills a struct from a table and its group sub-tables (an unknown key or
+// sub-table is an error that lists the valid ones; a value of the wrong type names the key and
+// the type expected); StoreOptions() writes the resolved values back, so the resolved
+// configuration can be stored in every output. CheckTables() rejects a table that no stage
+// reads. Every error names where the value came from: the job file, `--set`, or the flag.
+// toml++ stays inside config.cpp.
 #ifndef FACECAP_IO_CONFIG_H_
 #define FACECAP_IO_CONFIG_H_
 
@@ -112,30 +116,56 @@ class Config {
   std::map<std::pair<std::string, std::string>, std::string> value_origins_;
 };
 
-// Fills `options` from `table` of `config`. Unknown keys: InvalidInputError listing the valid
-// ones. Absent keys keep the struct's defaults.
-template <typename Options>
-void LoadOptions(const Config& config, const std::string& table, Options* options) {
-  std::vector<std::string> valid;
-  options->Visit([&](const char* key, auto& field, const char* /*help*/) {
-    valid.emplace_back(key);
-    if (config.Has(table, key)) config.Get(table, key, &field);
+// Where an option's key lives: (table, name) for "name", (table.group, name) for
+// "group.name".
+std::pair<std::string, std::string> OptionPlace(const std::string& table, const std::string& key);
+
+// InvalidInputError when `table` of `config` holds a key that is not one of `keys` (an
+// options struct's keys, grouped ones as "group.name"), or a sub-table that is not one of
+// their groups; the error lists the valid keys, and for a grouped option's name in the wrong
+// table says which table it belongs in.
+void CheckOptionKeys(const Config& config, const std::string& table,
+                     const std::vector<std::string>& keys);
+
+// Visits a nested options struct as the group `group`: each of its keys as "group.key".
+template <class Options, class V>
+void VisitGroup(const char* group, Options& options, V&& v) {
+  options.Visit([&](const char* key, auto& field, const char* help) {
+    const std::string grouped = std::string(group) + "." + key;
+    v(grouped.c_str(), field, help);
   });
-  for (const std::string& key : config.Keys(table)) {
-    if (std::find(valid.begin(), valid.end(), key) == valid.end()) {
-      std::string list;
-      for (const auto& v : valid) list += (list.empty() ? "" : ", ") + v;
-      throw InvalidInputError(config.OriginOf(table, key) + ": unknown key '" + key + "' in [" +
-                              table + "]; valid keys: " + list);
-    }
-  }
 }
 
-// Writes every field of `options` into `table` of `config`.
+// `table` and the sub-tables of its option groups, in Visit order.
+template <typename Options>
+std::vector<std::string> OptionTables(const std::string& table) {
+  std::vector<std::string> tables = {table};
+  Options().Visit([&](const char* key, auto&, const char*) {
+    const std::string where = OptionPlace(table, key).first;
+    if (std::find(tables.begin(), tables.end(), where) == tables.end()) tables.push_back(where);
+  });
+  return tables;
+}
+
+// Fills `options` from `table` of `config` and its group sub-tables. Unknown keys or tables:
+// InvalidInputError listing the valid ones. Absent keys keep the struct's defaults.
+template <typename Options>
+void LoadOptions(const Config& config, const std::string& table, Options* options) {
+  std::vector<std::string> keys;
+  options->Visit([&](const char* key, auto& field, const char* /*help*/) {
+    keys.emplace_back(key);
+    const auto [where, name] = OptionPlace(table, key);
+    if (config.Has(where, name)) config.Get(where, name, &field);
+  });
+  CheckOptionKeys(config, table, keys);
+}
+
+// Writes every field of `options` into `table` of `config` (grouped ones into its sub-tables).
 template <typename Options>
 void StoreOptions(const Options& options, const std::string& table, Config* config) {
   const_cast<Options&>(options).Visit([&](const char* key, auto& field, const char*) {
-    config->Set(table, key, field);
+    const auto [where, name] = OptionPlace(table, key);
+    config->Set(where, name, field);
   });
 }
 

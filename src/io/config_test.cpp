@@ -217,6 +217,69 @@ TEST(Config, TextIsOneLiteralOrAString) {
   EXPECT_EQ(out, "a = b");
 }
 
+// Options grouped by concern: "loss.rate" lives in [t.loss], its flag is --rate.
+struct GroupedOptions {
+  int steps = 10;
+  float rate = 1e-3f;
+  float weight = 1.f;
+  bool flip = true;
+  template <class V>
+  void Visit(V&& v) {
+    v("steps", steps, "training steps");
+    v("loss.rate", rate, "learning rate");
+    v("loss.weight", weight, "a loss weight");
+    v("augment.flip", flip, "mirror images");
+  }
+  bool Check(std::string*) const { return true; }
+};
+
+TEST(Config, GroupedOptionsLiveInTheirSubTablesAndRoundTrip) {
+  Config c = Config::Parse("[train]\nsteps = 3\n[train.loss]\nrate = 0.5\n[train.augment]\nflip = false\n",
+                           "job.toml");
+  GroupedOptions o = ResolveOptions<GroupedOptions>(c, "train");
+  EXPECT_EQ(o.steps, 3);
+  EXPECT_FLOAT_EQ(o.rate, 0.5f);
+  EXPECT_FLOAT_EQ(o.weight, 1.f);  // default kept
+  EXPECT_FALSE(o.flip);
+  Config stored;
+  StoreOptions(o, "train", &stored);
+  EXPECT_TRUE(stored.Has("train.loss", "weight"));
+  EXPECT_FALSE(stored.Has("train", "rate"));
+  const GroupedOptions back = ResolveOptions<GroupedOptions>(Config::Parse(stored.ToToml()), "train");
+  EXPECT_FLOAT_EQ(back.rate, 0.5f);
+  EXPECT_FALSE(back.flip);
+  EXPECT_EQ(OptionTables<GroupedOptions>("train"),
+            (std::vector<std::string>{"train", "train.loss", "train.augment"}));
+  c.SetAssignment("train.loss.rate=0.25");
+  EXPECT_FLOAT_EQ(ResolveOptions<GroupedOptions>(c, "train").rate, 0.25f);
+}
+
+TEST(Config, AGroupedKeyElsewhereOrAnUnknownGroupIsAnError) {
+  const std::string flat = ErrorOf(
+      [] { ResolveOptions<GroupedOptions>(Config::Parse("[train]\nrate = 0.5\n", "job.toml"), "train"); });
+  EXPECT_EQ(flat.rfind("job.toml: unknown key 'rate' in [train]; 'rate' belongs in [train.loss]", 0), 0u)
+      << flat;
+  EXPECT_NE(flat.find("and the tables [train.loss], [train.augment]"), std::string::npos) << flat;
+  const std::string wrong = ErrorOf([] {
+    ResolveOptions<GroupedOptions>(Config::Parse("[train.augment]\nrate = 0.5\n", "job.toml"), "train");
+  });
+  EXPECT_NE(wrong.find("unknown key 'rate' in [train.augment]; 'rate' belongs in [train.loss]; "
+                       "valid keys: flip"),
+            std::string::npos)
+      << wrong;
+  const std::string group = ErrorOf([] {
+    ResolveOptions<GroupedOptions>(Config::Parse("[train.losss]\nrate = 0.5\n", "job.toml"), "train");
+  });
+  EXPECT_EQ(group.rfind("job.toml: unknown table [train.losss]; the option groups of [train] are "
+                        "[train.loss], [train.augment]", 0),
+            0u)
+      << group;
+  // A failed check names the origin of a grouped value.
+  Config c = Config::Parse("[train.loss]\nrate = 0.5\n", "job.toml");
+  c.SetFromText("train.loss", "weight", "2", "--weight");
+  EXPECT_EQ(c.OriginOfCheck("train", "weight must be small"), "--weight");
+}
+
 TEST(Config, StoredOptionsRoundTripThroughToml) {
   ExampleOptions o;
   o.count = 99;

@@ -27,6 +27,7 @@
 #include "assets/example_based_rigging.h"
 #include "assets/geometry_image.h"
 #include "assets/template_shapes.h"
+#include "io/config.h"
 #include "io/mesh_io.h"
 #include "io/rig_io.h"
 #include "nn/blendshape_generator.h"
@@ -212,7 +213,7 @@ struct BlendshapesTrainOptions {
 
   // --help's sections, by the first key of each.
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
-    return {{"scans", "Data and schedule"}, {"channels", "Networks"}, {"learning_rate", "Losses and optimizer"}};
+    return {{"scans", "Data and schedule"}, {"model.channels", "Networks"}, {"model.learning_rate", "Losses and optimizer"}};
   }
   template <class V>
   void Visit(V&& v) {
@@ -233,7 +234,7 @@ struct BlendshapesTrainOptions {
     v("average_fraction", average_fraction,
       "each stage ends with the parameters averaged over this last fraction of its steps "
       "(iterate averaging: what the step size's noise adds to the parameters averages out; 0: the last step's)");
-    net.Visit(v);
+    io::VisitGroup("model", net, v);
   }
   bool Check(std::string* why) const {
     if (scans.empty() || out.empty()) { *why = "scans and out must name files"; return false; }

@@ -62,23 +62,32 @@ std::vector<std::string> WithRunInstances(const io::Config& config, std::vector<
   if (!config.Has("run", "stages") || !config.IsArray("run", "stages")) return valid;
   std::vector<std::string> named;
   config.Get("run", "stages", &named);
-  const size_t stage_tables = valid.size();
+  const std::vector<std::string> stage_tables = valid;
   for (const std::string& entry : named) {
     const size_t dash = entry.find('-');
     if (dash == std::string::npos) continue;
-    const auto end = valid.begin() + static_cast<std::ptrdiff_t>(stage_tables);
-    if (std::find(valid.begin(), end, entry.substr(0, dash)) != end) valid.push_back(entry);
+    AddInstanceTables(stage_tables, entry.substr(0, dash), entry, &valid);
   }
   return valid;
 }
 
 }  // namespace
 
+void AddInstanceTables(const std::vector<std::string>& tables, const std::string& stage,
+                       const std::string& instance, std::vector<std::string>* out) {
+  for (const std::string& t : tables) {
+    if (t == stage || t.compare(0, stage.size() + 1, stage + ".") == 0) {
+      out->push_back(instance + t.substr(stage.size()));
+    }
+  }
+}
+
 io::Config BuildConfig(const StageFlags& flags) {
   io::Config config = flags.job.empty() ? io::Config() : io::Config::Load(flags.job);
   for (const auto& assignment : flags.sets) config.SetAssignment(assignment);
   for (const auto& [key, text] : flags.overrides) {
-    config.SetFromText(flags.table, key, text, FlagName(key));
+    const auto [table, name] = io::OptionPlace(flags.table, key);
+    config.SetFromText(table, name, text, FlagName(key));
   }
   if (flags.job_tables) config.CheckTables(WithRunInstances(config, *flags.job_tables));
   return config;

@@ -49,8 +49,9 @@ std::string DefaultText(const T& value) {
   return os.str();
 }
 
+// The flag of an option key: --name for "name" and for a grouped "group.name".
 inline std::string FlagName(const std::string& key) {
-  std::string f = "--" + key;
+  std::string f = "--" + key.substr(key.find('.') + 1);
   for (char& c : f) if (c == '_') c = '-';
   return f;
 }
@@ -120,7 +121,9 @@ void AddStageFlags(CLI::App* sub, const std::string& table, StageFlags* flags) {
   defaults.Visit([&](const char* key, auto& field, const char* help) {
     const std::string k = key;
     for (const auto& [first, title] : sections) {
-      if (first == k) section = title;
+      // A section of grouped options names the job-file table they live in.
+      const std::string where = io::OptionPlace(table, first).first;
+      if (first == k) section = where == table ? title : title + " ([" + where + "])";
     }
     using Field = std::decay_t<decltype(field)>;
     const std::string description = std::string(help) + " (default: " + DefaultText(field) + ")";
@@ -156,6 +159,12 @@ void AddStageFlags(CLI::App* sub, const std::string& table, StageFlags* flags) {
     }
   });
 }
+
+// For an instance table [STAGE-NAME] of the stage table `stage`: the instance's tables, its
+// own and its option groups' ([STAGE-NAME.group]), appended to *out for each of the stage's
+// among `tables`.
+void AddInstanceTables(const std::vector<std::string>& tables, const std::string& stage,
+                       const std::string& instance, std::vector<std::string>* out);
 
 // The job configuration with --set and flags applied (flags win); with flags.job_tables, a
 // table that is not one of them is an error that names it, its source and the valid tables.

@@ -142,6 +142,37 @@ TEST(Cli, RunStageInstancesReadTheirOwnTables) {
   EXPECT_NE(bad.output.find("unknown table [rig.demo-other]"), std::string::npos) << bad.output;
 }
 
+// Options grouped by concern live in sub-tables of the stage's table ([deepfake.train.loss]),
+// an instance's as well ([deepfake.train-small.network]); --help names the table of each group,
+// and a grouped key left in the stage's own table is refused naming the table it belongs in.
+TEST(Cli, GroupedOptionsLiveInTheirSubTables) {
+  testing::TempDir dir;
+  const std::string job = dir.File("job.toml");
+  std::ofstream(job) << "[run]\nstages = ['deepfake.train', 'deepfake.train-small']\n"
+                     << "[deepfake.train]\nout = '" << dir.File("a.h5") << "'\n"
+                     << "[deepfake.train.loss]\nlearning_rate = 5e-4\n"
+                     << "[deepfake.train-small]\nout = '" << dir.File("b.h5") << "'\n"
+                     << "[deepfake.train-small.network]\nsize = 32\nskips = 0\n";
+  Result r = RunFacecap("run " + job + " --list");
+  EXPECT_EQ(r.code, 0) << r.output;
+  Result help = RunFacecap("deepfake train --help");
+  EXPECT_NE(help.output.find("Network ([deepfake.train.network]):"), std::string::npos) << help.output;
+  EXPECT_NE(help.output.find("--learning-rate"), std::string::npos) << help.output;
+  const std::string flat = dir.File("flat.toml");
+  std::ofstream(flat) << "[deepfake.train]\nout = '" << dir.File("c.h5") << "'\nlearning_rate = 5e-4\n";
+  Result bad = RunFacecap("run " + flat + " --list");
+  EXPECT_EQ(bad.code, kExitUsage) << bad.output;
+  EXPECT_NE(bad.output.find("'learning_rate' belongs in [deepfake.train.loss]"), std::string::npos)
+      << bad.output;
+  const std::string stray = dir.File("stray.toml");
+  std::ofstream(stray) << "[deepfake.train]\nout = '" << dir.File("d.h5") << "'\n"
+                       << "[deepfake.train.losses]\nlearning_rate = 5e-4\n";
+  Result unknown = RunFacecap("run " + stray + " --list");
+  EXPECT_EQ(unknown.code, kExitUsage) << unknown.output;
+  EXPECT_NE(unknown.output.find("unknown table [deepfake.train.losses]"), std::string::npos)
+      << unknown.output;
+}
+
 // One stage of a job with instance tables runs alone with --job: it reads its own table, and the
 // instances [run] names are not unknown tables (one it does not name still is).
 TEST(Cli, StageAloneAcceptsTheJobsInstanceTables) {

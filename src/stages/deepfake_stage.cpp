@@ -96,8 +96,8 @@ struct DeepfakeTrainOptions {
 
   // --help's sections: data, schedule and checkpoints, network, losses, augmentation.
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
-    return {{"a", "Data"}, {"out", "Schedule and checkpoints"}, {"size", "Network"},
-            {"learning_rate", "Losses and optimizer"}, {"random_background", "Augmentation"}};
+    return {{"a", "Data"}, {"out", "Schedule and checkpoints"}, {"network.size", "Network"},
+            {"loss.learning_rate", "Losses and optimizer"}, {"augment.random_background", "Augmentation"}};
   }
   // The options, by concern, in HelpSections' order. The rest of the recipe is fixed (nn::DeepfakeLossOptions and nn::AugmentOptions
   // defaults): L1 + DSSIM reconstruction, adversarial weights 0.02, Adam (0.5, 0.999) with
@@ -139,38 +139,38 @@ struct DeepfakeTrainOptions {
     v("device", device, "cpu, or cuda when libtorch has CUDA");
     v("threads", threads, "torch threads per rank (0: the cores divided among the node's ranks)");
 
-    v("size", network.size, "image width and height in pixels (a power of two, 16 or more)");
-    v("palette_head", palette_head,
+    v("network.size", network.size, "image width and height in pixels (a power of two, 16 or more)");
+    v("network.palette_head", palette_head,
       "D_A gives per pixel logits over domain A's region colours (its /regions and the black "
       "background) and shows their softmax-weighted colour; translations take the most likely "
       "region's colour (false: an RGB head)");
-    v("skips", network.skips,
+    v("network.skips", network.skips,
       "finest encoder levels whose features also feed the decoders (U-Net skips; 0: none)");
-    v("input_skip_width", network.input_skip_width,
+    v("network.input_skip_width", network.input_skip_width,
       "channels of an encoder level at the input resolution that feeds the decoders' last "
       "convolution (0: none)");
-    v("encoder_width", network.encoder_width, "channels of the encoder's first level, doubled per level");
-    v("latent_channels", network.latent_channels, "channels of the latent code E(I) (8x8)");
-    v("decoder_width", network.decoder_width, "channels of the decoders' last level, doubled per level up");
-    v("decoder_b_width", network.decoder_b_width,
+    v("network.encoder_width", network.encoder_width, "channels of the encoder's first level, doubled per level");
+    v("network.latent_channels", network.latent_channels, "channels of the latent code E(I) (8x8)");
+    v("network.decoder_width", network.decoder_width, "channels of the decoders' last level, doubled per level up");
+    v("network.decoder_b_width", network.decoder_b_width,
       "channels of D_B's last level, doubled per level up (0: decoder_width)");
-    v("discriminator_width", network.discriminator_width, "channels of the discriminators");
+    v("network.discriminator_width", network.discriminator_width, "channels of the discriminators");
 
-    v("learning_rate", loss.learning_rate, "Adam learning rate of the encoder and decoders");
-    v("gradient_clip", loss.gradient_clip,
+    v("loss.learning_rate", loss.learning_rate, "Adam learning rate of the encoder and decoders");
+    v("loss.gradient_clip", loss.gradient_clip,
       "cap on each step's gradient norm, as a multiple of its running RMS in Adam's second "
       "moment (0: no cap)");
-    v("palette_weight", loss.palette_weight,
+    v("loss.palette_weight", loss.palette_weight,
       "weight of the region cross-entropy of D_A's output over the segmentation palette, rare "
       "regions weighted up (0: none)");
-    v("dice_weight", loss.dice_weight,
+    v("loss.dice_weight", loss.dice_weight,
       "weight of a per-image soft Dice term on D_A's region probabilities, every region "
       "counted alike (0: none; needs the palette)");
-    v("region_l1_weight", loss.region_l1_weight,
+    v("loss.region_l1_weight", loss.region_l1_weight,
       "weight of an L1 term on D_A's output with each pixel weighted by its target region's "
       "rarity, as the palette terms' regions (0: none)");
 
-    v("random_background", augment.random_background,
+    v("augment.random_background", augment.random_background,
       "probability that a paired camera frame's background is replaced by a random procedural "
       "one (0: never)");
   }

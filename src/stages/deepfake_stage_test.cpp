@@ -60,11 +60,11 @@ class DeepfakeStage : public ::testing::Test {
            // The plain network and losses these tests were written for, not the subcommand's
            // recipe (its skips need more levels than a 32-pixel network has).
            // A test's own flags override these (--set ranks below flags).
-           " --set deepfake.train.skips=0 --set deepfake.train.decoder_b_width=0"
-           " --set deepfake.train.input_skip_width=0 --set deepfake.train.palette_head=false"
-           " --set deepfake.train.palette_weight=0 --set deepfake.train.dice_weight=0"
-           " --set deepfake.train.region_l1_weight=2 --set deepfake.train.gradient_clip=0"
-           " --set deepfake.train.average_decay=0 --set deepfake.train.random_background=0"
+           " --set deepfake.train.network.skips=0 --set deepfake.train.network.decoder_b_width=0"
+           " --set deepfake.train.network.input_skip_width=0 --set deepfake.train.network.palette_head=false"
+           " --set deepfake.train.loss.palette_weight=0 --set deepfake.train.loss.dice_weight=0"
+           " --set deepfake.train.loss.region_l1_weight=2 --set deepfake.train.loss.gradient_clip=0"
+           " --set deepfake.train.average_decay=0 --set deepfake.train.augment.random_background=0"
            " --set deepfake.train.paired_fraction=0.5 --out " + out;
   }
   static std::vector<std::string> RankHashes(const std::string& path) {

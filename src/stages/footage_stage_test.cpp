@@ -360,7 +360,7 @@ std::string TinyDemo() {
         "deepfake.train.batch=4", "deepfake.train.checkpoint_every=0",
         "deepfake.train.preview_every=0", "deepfake.infer.shift_average=0",
         "person.fit.count=4", "person.fit.landmark_rounds=1", "person.fit.refine_rounds=1",
-        "track.levels=1", "track.epochs=1", "export.overlay.count=4"}) {
+        "track.solver.levels=1", "track.solver.epochs=1", "export.overlay.count=4"}) {
     sets += std::string(" --set ") + s;
   }
   return "run " + testing::SourceDir() + "/jobs/demo.toml" + sets;

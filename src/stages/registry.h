@@ -134,7 +134,7 @@ CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
     run(f, state);
   };
   sub->callback([=] { checked_run(*flags); });
-  state->job_tables.push_back(table);
+  for (const std::string& t : io::OptionTables<Options>(table)) state->job_tables.push_back(t);
   StageSpec spec;
   spec.table = table;
   spec.command = command;

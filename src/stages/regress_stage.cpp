@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "face/face_analyzer.h"
+#include "io/config.h"
 #include "io/hdf5.h"
 #include "io/rig_io.h"
 #include "nn/deepfake.h"
@@ -66,7 +67,7 @@ struct RegressTrainOptions {
   nn::RegressorOptions net;
 
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
-    return {{"samples", "Data and schedule"}, {"hidden", "Networks and optimizer"}};
+    return {{"samples", "Data and schedule"}, {"model.hidden", "Networks and optimizer"}};
   }
   template <class V>
   void Visit(V&& v) {
@@ -106,7 +107,7 @@ struct RegressTrainOptions {
       "L's targets: translations (dlib's landmarks on every example's translation D_S(E(I)) in "
       "the codes files, samples and real frames alike, as the paper) or projected (the "
       "samples' projected landmarks and the landmarks ingest detected on the real crops)");
-    net.Visit(v);
+    io::VisitGroup("model", net, v);
   }
   bool Check(std::string* why) const {
     if (samples.empty() || sample_codes.empty() || rig.empty() || out.empty()) {

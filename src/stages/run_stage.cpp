@@ -133,7 +133,7 @@ void RunJob(const RunFlags& flags, AppState* state) {
                               "runs the stage on its defaults) or remove the stage");
     }
     plan.push_back({found, table});
-    if (table != found->table) job_tables.push_back(table);
+    if (table != found->table) AddInstanceTables(state->job_tables, found->table, table, &job_tables);
   }
   // A misspelled table ([rigg]) would otherwise be a stage that silently never runs.
   config.CheckTables(job_tables);

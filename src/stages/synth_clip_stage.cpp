@@ -60,9 +60,9 @@ struct SynthClipOptions {
   // --help's sections, by the first key of each.
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
     return {{"rig", "Input and output"}, {"speech", "Speech"}, {"frames", "Clip"},
-            {"identity_seed", "Person and seeds"}, {"expression_seconds", "Expressions"}, {"pose_seconds", "Head motion"},
-            {"light_period_seconds", "Lighting"}, {"texture_size", "Skin texture"},
-            {"exposure_min", "Camera degradations"}};
+            {"identity_seed", "Person and seeds"}, {"expressions.expression_seconds", "Expressions"},
+            {"head_motion.pose_seconds", "Head motion"}, {"lighting.light_period_seconds", "Lighting"},
+            {"skin.texture_size", "Skin texture"}, {"camera.exposure_min", "Camera degradations"}};
   }
   template <class V>
   void Visit(V&& v) {

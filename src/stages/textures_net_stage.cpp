@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "io/config.h"
 #include "io/dynamic_texture_file.h"
 #include "io/rig_io.h"
 #include "nn/blendshape_generator.h"
@@ -44,7 +45,7 @@ struct TexturesTrainOptions {
   nn::TextureNetOptions net;
 
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
-    return {{"scans", "Data and schedule"}, {"channels", "Networks and optimizer"}};
+    return {{"scans", "Data and schedule"}, {"model.channels", "Networks and optimizer"}};
   }
   template <class V>
   void Visit(V&& v) {
@@ -60,7 +61,7 @@ struct TexturesTrainOptions {
     v("progress_seconds", progress_seconds, "seconds between progress lines");
     v("threads", threads, "tensor threads per rank (0: the cores divided among the node's ranks)");
     v("seed", seed, "batch order seed");
-    net.Visit(v);
+    io::VisitGroup("model", net, v);
   }
   bool Check(std::string* why) const {
     if (scans.empty() || out.empty()) { *why = "scans and out must name files"; return false; }

@@ -6,6 +6,7 @@
 #include <memory>
 #include <mutex>
 
+#include "io/config.h"
 #include "io/hdf5.h"
 #include "io/rig_io.h"
 #include "lipsync/visemes.h"
@@ -70,7 +71,7 @@ struct TrackOptions {
 
   // --help's sections, by the first key of each.
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
-    return {{"rig", "Inputs and output"}, {"init", "Start and work"}, {"objective", "Solver"}};
+    return {{"rig", "Inputs and output"}, {"init", "Start and work"}, {"solver.objective", "Solver"}};
   }
   template <class V>
   void Visit(V&& v) {
@@ -93,7 +94,7 @@ struct TrackOptions {
       "the only controls solved, by name; every other control stays at the neutral (empty: all)");
     v("batch", batch, "work units per rank per round; each round is a checkpoint");
     v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
-    tracker.Visit(v);
+    io::VisitGroup("solver", tracker, v);
   }
   bool Check(std::string* why) const {
     if (init != "neutral" && init != "landmarks" && init != "previous") {

@@ -89,6 +89,8 @@ struct ClipOptions {
   SkinTextureOptions texture;            // the person's albedo texture
   CameraDegradationOptions degradation;  // exposure, blur, noise, JPEG
 
+  // The performance, lights, skin and camera options are grouped by concern ("group.key":
+  // the job-file table [synth.clip.group]).
   template <class V>
   void Visit(V&& v) {
     v("frames", frames, "number of frames");
@@ -103,52 +105,52 @@ struct ClipOptions {
     v("lighting_seed", lighting_seed, "seed of light colours, directions and motion");
     v("background_seed", background_seed, "seed of the background and the camera pan");
     v("camera_seed", camera_seed, "seed of exposure, white balance, blur, noise, compression");
-    v("expression_seconds", expression_seconds, "mean time between expression keyframes (s)");
-    v("neutral_probability", neutral_probability, "chance that an expression keyframe is neutral");
-    v("weight_max", weight_max, "largest weight of a random expression keyframe");
-    v("sparsity_groups", sparsity_groups, "shape-name prefixes of the face regions");
-    v("sparsity_max_active", sparsity_max_active,
+    v("expressions.expression_seconds", expression_seconds, "mean time between expression keyframes (s)");
+    v("expressions.neutral_probability", neutral_probability, "chance that an expression keyframe is neutral");
+    v("expressions.weight_max", weight_max, "largest weight of a random expression keyframe");
+    v("expressions.sparsity_groups", sparsity_groups, "shape-name prefixes of the face regions");
+    v("expressions.sparsity_max_active", sparsity_max_active,
       "most active shapes per region in an expression keyframe, one per group");
-    v("blinks_per_minute", blinks_per_minute, "mean blink rate (0: no blinks)");
-    v("blink_seconds", blink_seconds, "duration of a blink (s)");
-    v("pose_seconds", pose_seconds, "mean time between head-pose keyframes (s)");
-    v("yaw_speed_deg", yaw_speed_deg, "peak yaw speed (deg/s); far turns take longer");
-    v("yaw_sigma_deg", yaw_sigma_deg, "sigma of the Gaussian yaw keyframes (deg)");
-    v("yaw_limit_deg", yaw_limit_deg, "yaw is truncated to [-limit, limit] (deg)");
-    v("extreme_yaw_probability", extreme_yaw_probability,
+    v("expressions.blinks_per_minute", blinks_per_minute, "mean blink rate (0: no blinks)");
+    v("expressions.blink_seconds", blink_seconds, "duration of a blink (s)");
+    v("head_motion.pose_seconds", pose_seconds, "mean time between head-pose keyframes (s)");
+    v("head_motion.yaw_speed_deg", yaw_speed_deg, "peak yaw speed (deg/s); far turns take longer");
+    v("head_motion.yaw_sigma_deg", yaw_sigma_deg, "sigma of the Gaussian yaw keyframes (deg)");
+    v("head_motion.yaw_limit_deg", yaw_limit_deg, "yaw is truncated to [-limit, limit] (deg)");
+    v("head_motion.extreme_yaw_probability", extreme_yaw_probability,
       "chance that a pose keyframe turns to an extreme yaw");
-    v("extreme_yaw_min_deg", extreme_yaw_min_deg, "smallest |yaw| of an extreme-yaw keyframe");
-    v("pitch_sigma_deg", pitch_sigma_deg, "sigma of the pitch keyframes (deg)");
-    v("pitch_limit_deg", pitch_limit_deg, "pitch is truncated to [-limit, limit] (deg)");
-    v("roll_sigma_deg", roll_sigma_deg, "sigma of the roll keyframes (deg)");
-    v("roll_limit_deg", roll_limit_deg, "roll is truncated to [-limit, limit] (deg)");
-    v("translation_jitter_cm", translation_jitter_cm, "head drift in x and y (cm; twice in depth)");
-    v("keyframes", keyframes,
+    v("head_motion.extreme_yaw_min_deg", extreme_yaw_min_deg, "smallest |yaw| of an extreme-yaw keyframe");
+    v("head_motion.pitch_sigma_deg", pitch_sigma_deg, "sigma of the pitch keyframes (deg)");
+    v("head_motion.pitch_limit_deg", pitch_limit_deg, "pitch is truncated to [-limit, limit] (deg)");
+    v("head_motion.roll_sigma_deg", roll_sigma_deg, "sigma of the roll keyframes (deg)");
+    v("head_motion.roll_limit_deg", roll_limit_deg, "roll is truncated to [-limit, limit] (deg)");
+    v("head_motion.translation_jitter_cm", translation_jitter_cm, "head drift in x and y (cm; twice in depth)");
+    v("head_motion.keyframes", keyframes,
       "scripted keyframes \"TIME key=value ...\" (shape names, pitch_deg, yaw_deg, roll_deg, "
       "tx_cm, ty_cm, tz_cm); empty: random performance");
-    v("light_period_seconds", light_period_seconds, "period of the key light's swing (s)");
-    v("key_intensity", key_intensity, "mean radiance scale of the key light");
-    v("environment_intensity", environment_intensity, "mean radiance of the SH environment");
-    v("texture_size", texture.texture_size, "albedo texture width and height (texels)");
-    v("blotch_strength", texture.blotch_strength, "low-frequency skin tone variation");
-    v("pore_strength", texture.pore_strength, "fine pore noise of the skin");
-    v("cheek_redness", texture.cheek_redness, "redness of cheeks and nose");
-    v("lash_darkness", texture.lash_darkness, "darkening of the lash lines, [0, 1]");
-    v("occlusion_strength", texture.occlusion_strength,
+    v("lighting.light_period_seconds", light_period_seconds, "period of the key light's swing (s)");
+    v("lighting.key_intensity", key_intensity, "mean radiance scale of the key light");
+    v("lighting.environment_intensity", environment_intensity, "mean radiance of the SH environment");
+    v("skin.texture_size", texture.texture_size, "albedo texture width and height (texels)");
+    v("skin.blotch_strength", texture.blotch_strength, "low-frequency skin tone variation");
+    v("skin.pore_strength", texture.pore_strength, "fine pore noise of the skin");
+    v("skin.cheek_redness", texture.cheek_redness, "redness of cheeks and nose");
+    v("skin.lash_darkness", texture.lash_darkness, "darkening of the lash lines, [0, 1]");
+    v("skin.occlusion_strength", texture.occlusion_strength,
       "darkening of cavities (eye sockets, nostrils, folds), [0, 1]");
-    v("exposure_min", degradation.exposure_min, "smallest exposure gain");
-    v("exposure_max", degradation.exposure_max, "largest exposure gain");
-    v("white_balance_jitter", degradation.white_balance_jitter,
+    v("camera.exposure_min", degradation.exposure_min, "smallest exposure gain");
+    v("camera.exposure_max", degradation.exposure_max, "largest exposure gain");
+    v("camera.white_balance_jitter", degradation.white_balance_jitter,
       "relative per-channel gain jitter of the clip");
-    v("defocus_sigma_min", degradation.defocus_sigma_min, "smallest defocus blur sigma (px)");
-    v("defocus_sigma_max", degradation.defocus_sigma_max, "largest defocus blur sigma (px)");
-    v("motion_blur_max", degradation.motion_blur_max, "longest motion-blur streak (px)");
-    v("motion_blur_probability", degradation.motion_blur_probability,
+    v("camera.defocus_sigma_min", degradation.defocus_sigma_min, "smallest defocus blur sigma (px)");
+    v("camera.defocus_sigma_max", degradation.defocus_sigma_max, "largest defocus blur sigma (px)");
+    v("camera.motion_blur_max", degradation.motion_blur_max, "longest motion-blur streak (px)");
+    v("camera.motion_blur_probability", degradation.motion_blur_probability,
       "fraction of frames with motion blur");
-    v("noise_sigma_min", degradation.noise_sigma_min, "smallest sensor noise sigma (8-bit levels)");
-    v("noise_sigma_max", degradation.noise_sigma_max, "largest sensor noise sigma (8-bit levels)");
-    v("jpeg_quality_min", degradation.jpeg_quality_min, "lowest JPEG quality (1-100)");
-    v("jpeg_quality_max", degradation.jpeg_quality_max, "highest JPEG quality (0: no JPEG)");
+    v("camera.noise_sigma_min", degradation.noise_sigma_min, "smallest sensor noise sigma (8-bit levels)");
+    v("camera.noise_sigma_max", degradation.noise_sigma_max, "largest sensor noise sigma (8-bit levels)");
+    v("camera.jpeg_quality_min", degradation.jpeg_quality_min, "lowest JPEG quality (1-100)");
+    v("camera.jpeg_quality_max", degradation.jpeg_quality_max, "highest JPEG quality (0: no JPEG)");
   }
   bool Check(std::string* why) const;
 };
