@@ -2,14 +2,17 @@
 # The speed figures of README's Figures table in one run, each beside the baseline measured in
 # the same run (1 rank against 2, the icosphere against the head, torch::mm's rate against a
 # training step's), and the deepfake and blendshape trainers' arithmetic rates against this
-# machine's single-precision matrix-multiply rate. The accuracy figures come from their jobs
-# (jobs/demo.toml, jobs/video.toml, jobs/blendshapes.toml) and scripts; with an output folder
-# of the demo job (OUT_DEMO, default out/demo) its metrics are listed too.
+# machine's single-precision matrix-multiply rate. Then the accuracy figures of the demo, the
+# lip-sync and the blendshapes jobs, each beside the trivial answer or the oracle of the same
+# job (analysis/accuracy_rows.py): with ACCURACY_JOBS=1 the jobs are run first (2 ranks; a job
+# whose outputs are up to date is skipped; about 1 hour from nothing), else the outputs found
+# in out/ are read.
 #
-#   analysis/bench_all.sh [BUILD_DIR]
+#   [ACCURACY_JOBS=1] analysis/bench_all.sh [BUILD_DIR]
 #
 # Writes every script's output to LOGS (default out/bench_all/) and the summary to
-# LOGS/summary.md. Takes about 10 minutes on 2 cores; run it on an otherwise idle machine.
+# LOGS/summary.md. The speed part takes about 10 minutes on 2 cores; run it on an otherwise
+# idle machine.
 source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
 take_build_dir "$@"
 logs="$(mkdir -p "${LOGS:-out/bench_all}" && cd "${LOGS:-out/bench_all}" && pwd)"
@@ -79,10 +82,23 @@ if run train_rate env OMP_NUM_THREADS=1 GLOG_minloglevel=2 "${build_dir}/facecap
   row "deepfake and blendshape training steps against torch::mm, one thread" facecap_bench_train_rate \
     train_rate.log "^matmul peak" "^deepfake training step" "^blendshape Estimation" "^blendshape Tuning"
 fi
-if [[ -f "${out_demo}/metrics.json" ]]; then
-  for name in metrics metrics_truerig metrics_oracle metrics_landmarks metrics_person; do
-    [[ -f "${out_demo}/${name}.json" ]] || continue
-    echo "| demo ${name} (from ${out_demo}) | $(tr -d '\n' < "${out_demo}/${name}.json" | cut -c1-400) | \`jobs/demo.toml\` |" >> "${summary}"
+
+# Accuracy: the jobs' outputs (run from the source folder, where the job files write out/).
+if [[ "${ACCURACY_JOBS:-0}" == 1 ]]; then
+  for job in demo lipsync blendshapes; do
+    run "job_${job}" bash -c "cd '${source_dir}' && ${mpirun_cmd[*]} -n 2 '${facecap}' run jobs/${job}.toml" || true
   done
 fi
+blendshapes_json="${logs}/blendshapes.json"
+if [[ -f "${source_dir}/out/blendshapes/bsgen.h5" ]]; then
+  (cd "${source_dir}" && "${facecap}" eval blendshapes --job jobs/blendshapes.toml --json 2>/dev/null |
+     grep '^{' > "${blendshapes_json}") || rm -f "${blendshapes_json}"
+fi
+{
+  echo
+  echo "## Accuracy, each beside its baseline in the same job"
+  echo
+  /usr/bin/python3 "${analysis}/accuracy_rows.py" --demo "${out_demo}" \
+    --lipsync "${source_dir}/out/lipsync" --blendshapes "${blendshapes_json}"
+} >> "${summary}"
 cat "${summary}"
