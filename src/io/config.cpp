@@ -193,10 +193,11 @@ void CheckOptionKeys(const Config& config, const std::string& table,
   // Valid names per table (the stage's own first), in Visit order.
   std::vector<std::pair<std::string, std::vector<std::string>>> valid = {{table, {}}};
   for (const std::string& key : keys) {
-    const auto [where, name] = OptionPlace(table, key);
-    auto it = std::find_if(valid.begin(), valid.end(), [&](const auto& v) { return v.first == where; });
-    if (it == valid.end()) it = valid.insert(valid.end(), {where, {}});
-    it->second.push_back(name);
+    const std::pair<std::string, std::string> place = OptionPlace(table, key);
+    auto it = std::find_if(valid.begin(), valid.end(),
+                           [&](const auto& v) { return v.first == place.first; });
+    if (it == valid.end()) it = valid.insert(valid.end(), {place.first, {}});
+    it->second.push_back(place.second);
   }
   const auto join = [](const std::vector<std::string>& names) {
     std::string list;

@@ -75,6 +75,7 @@ std::vector<std::string> WithRunInstances(const io::Config& config, std::vector<
 
 void AddInstanceTables(const std::vector<std::string>& tables, const std::string& stage,
                        const std::string& instance, std::vector<std::string>* out) {
+  if (std::find(tables.begin(), tables.end(), stage) == tables.end()) return;  // not a stage
   for (const std::string& t : tables) {
     if (t == stage || t.compare(0, stage.size() + 1, stage + ".") == 0) {
       out->push_back(instance + t.substr(stage.size()));

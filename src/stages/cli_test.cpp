@@ -155,6 +155,11 @@ TEST(Cli, GroupedOptionsLiveInTheirSubTables) {
                      << "[deepfake.train-small.network]\nsize = 32\nskips = 0\n";
   Result r = RunFacecap("run " + job + " --list");
   EXPECT_EQ(r.code, 0) << r.output;
+  // The stage alone on the same job accepts the instance's group table: what stops it is the
+  // bad value, not the table.
+  Result alone = RunFacecap("deepfake train --job " + job + " --steps -1");
+  EXPECT_EQ(alone.code, kExitUsage) << alone.output;
+  EXPECT_NE(alone.output.find("steps must be >= 0"), std::string::npos) << alone.output;
   Result help = RunFacecap("deepfake train --help");
   EXPECT_NE(help.output.find("Network ([deepfake.train.network]):"), std::string::npos) << help.output;
   EXPECT_NE(help.output.find("--learning-rate"), std::string::npos) << help.output;
