@@ -26,7 +26,7 @@
 #include "stages/cli.h"
 #include "stages/crop_framing.h"
 #include "stages/frame_loop.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/frames_video.h"
 #include "stages/holdout.h"
 #include "stages/ingested_frames.h"
@@ -141,20 +141,20 @@ struct AppearanceTurntableOptions {
 
 // The per-view datasets of a turntable file.
 void CreateViewDatasets(io::H5File* f, int size, int64_t views) {
-  f->CreateFrames<uint8_t>(frames::kImage, {size, size, 3}, views, 16, 1);
-  f->SetAttribute(frames::kImage, "layout", std::string("view, y, x, RGB (sRGB)"));
-  f->CreateFrames<float>(frames::kUv, {size, size, 3}, views, 4);
-  f->SetAttribute(frames::kUv, "layout",
+  f->CreateFrames<uint8_t>(io::frames::kImage, {size, size, 3}, views, 16, 1);
+  f->SetAttribute(io::frames::kImage, "layout", std::string("view, y, x, RGB (sRGB)"));
+  f->CreateFrames<float>(io::frames::kUv, {size, size, 3}, views, 4);
+  f->SetAttribute(io::frames::kUv, "layout",
                   std::string("view, y, x, (u, v, coverage): U(I), the texture coordinates of "
                               "the visible surface (OBJ convention), coverage 1 on the head"));
-  f->CreateFrames<int32_t>(frames::kTriangle, {size, size}, views, 4);
-  f->SetAttribute(frames::kTriangle, "layout", std::string("view, y, x: visible triangle, -1 none"));
-  f->CreateFrames<float>(frames::kDepth, {size, size}, views, 4);
-  f->SetAttribute(frames::kDepth, "units", std::string("cm from the camera; 0 where no head"));
-  f->CreateFrames<float>(frames::kPose, {3}, views, 1024);
-  f->SetAttribute(frames::kPose, "columns", std::string("pitch, yaw, roll (rad), in the view's camera"));
-  f->CreateFrames<float>(frames::kCamera, {4}, views, 1024);
-  f->SetAttribute(frames::kCamera, "columns", std::string("fx, fy, cx, cy (pixels) of the view"));
+  f->CreateFrames<int32_t>(io::frames::kTriangle, {size, size}, views, 4);
+  f->SetAttribute(io::frames::kTriangle, "layout", std::string("view, y, x: visible triangle, -1 none"));
+  f->CreateFrames<float>(io::frames::kDepth, {size, size}, views, 4);
+  f->SetAttribute(io::frames::kDepth, "units", std::string("cm from the camera; 0 where no head"));
+  f->CreateFrames<float>(io::frames::kPose, {3}, views, 1024);
+  f->SetAttribute(io::frames::kPose, "columns", std::string("pitch, yaw, roll (rad), in the view's camera"));
+  f->CreateFrames<float>(io::frames::kCamera, {4}, views, 1024);
+  f->SetAttribute(io::frames::kCamera, "columns", std::string("fx, fy, cx, cy (pixels) of the view"));
 }
 
 // Per-thread rendering state.
@@ -280,12 +280,12 @@ class ViewsRun {
         source_.ReadImage(views[k], &image);
         rendered = image.data;
       }
-      f.WriteFrames<uint8_t>(frames::kImage, views[k], 1, rendered.data());
-      f.WriteFrames<float>(frames::kUv, views[k], 1, r.GetVector<float>().data());
-      f.WriteFrames<int32_t>(frames::kTriangle, views[k], 1, r.GetVector<int32_t>().data());
-      f.WriteFrames<float>(frames::kDepth, views[k], 1, r.GetVector<float>().data());
-      f.WriteFrames<float>(frames::kPose, views[k], 1, r.GetVector<float>().data());
-      f.WriteFrames<float>(frames::kCamera, views[k], 1, r.GetVector<float>().data());
+      f.WriteFrames<uint8_t>(io::frames::kImage, views[k], 1, rendered.data());
+      f.WriteFrames<float>(io::frames::kUv, views[k], 1, r.GetVector<float>().data());
+      f.WriteFrames<int32_t>(io::frames::kTriangle, views[k], 1, r.GetVector<int32_t>().data());
+      f.WriteFrames<float>(io::frames::kDepth, views[k], 1, r.GetVector<float>().data());
+      f.WriteFrames<float>(io::frames::kPose, views[k], 1, r.GetVector<float>().data());
+      f.WriteFrames<float>(io::frames::kCamera, views[k], 1, r.GetVector<float>().data());
     }
     io::DoneMask mask(&f, source_.NumViews());
     mask.MarkDone(views);
@@ -300,7 +300,7 @@ class ViewsRun {
     for (int64_t k = 0; k < count; ++k) {
       const int64_t view = count == 1 ? 0 : k * (n - 1) / (count - 1);
       Image8 tile(source_.Size(), source_.Size(), 3);
-      f.ReadFrames<uint8_t>(frames::kImage, view, 1, tile.data.data());
+      f.ReadFrames<uint8_t>(io::frames::kImage, view, 1, tile.data.data());
       tiles.push_back(std::move(tile));
     }
     render::ContactSheetOptions sheet;
@@ -425,7 +425,7 @@ class TrackedFramesSource : public ViewSource {
       : track_(o.track, rig), path_(o.frames) {
     io::H5File f = io::H5File::OpenRead(o.frames);
     dataset_ = o.dataset;
-    if (dataset_.empty()) dataset_ = f.Exists(frames::kCrop) ? frames::kCrop : frames::kImage;
+    if (dataset_.empty()) dataset_ = f.Exists(io::frames::kCrop) ? io::frames::kCrop : io::frames::kImage;
     const io::Shape shape = f.CheckShape(dataset_, {-1, -1, -1, 3});
     if (shape[1] != shape[2]) throw FileIOError(o.frames + ": " + dataset_ + " is not square");
     if (shape[0] != track_.NumFrames()) {
@@ -543,14 +543,14 @@ struct AppearanceGatherOptions {
 std::vector<appearance::Particle> ReadParticles(const AppearanceGatherOptions& o,
                                                 const std::vector<int32_t>& charts) {
   io::H5File views = io::H5File::OpenRead(o.views);
-  const io::Shape uv_shape = views.CheckShape(frames::kUv, {-1, -1, -1, 3});
+  const io::Shape uv_shape = views.CheckShape(io::frames::kUv, {-1, -1, -1, 3});
   const int64_t count = uv_shape[0];
   const int size = static_cast<int>(uv_shape[1]);
-  views.CheckShape(frames::kTriangle, {count, size, size});
+  views.CheckShape(io::frames::kTriangle, {count, size, size});
   const std::string images_path = o.images.empty() ? o.views : o.images;
   io::H5File images = o.images.empty() ? io::H5File::OpenRead(o.views) : io::H5File::OpenRead(o.images);
   std::string dataset = o.dataset;
-  if (dataset.empty()) dataset = images.Exists(frames::kTranslated) ? frames::kTranslated : frames::kImage;
+  if (dataset.empty()) dataset = images.Exists(io::frames::kTranslated) ? io::frames::kTranslated : io::frames::kImage;
   const io::Shape image_shape = images.CheckShape(dataset, {-1, -1, -1, 3});
   if (image_shape[0] != count) {
     throw FileIOError(images_path + ": " + dataset + " has " + std::to_string(image_shape[0]) +
@@ -563,8 +563,8 @@ std::vector<appearance::Particle> ReadParticles(const AppearanceGatherOptions& o
   for (int64_t v = 0; v < count; ++v) {
     if (IsHeldOut(v, o.holdout_every)) continue;
     images.ReadFrames<uint8_t>(dataset, v, 1, image.data.data());
-    views.ReadFrames<float>(frames::kUv, v, 1, uv.data.data());
-    views.ReadFrames<int32_t>(frames::kTriangle, v, 1, triangles.data.data());
+    views.ReadFrames<float>(io::frames::kUv, v, 1, uv.data.data());
+    views.ReadFrames<int32_t>(io::frames::kTriangle, v, 1, triangles.data.data());
     render::Image8ToLinear(image, true, &linear);
     appearance::SilhouetteInterior(uv, o.edge_margin_px, &interior);
     appearance::AppendImageParticles(render::ResampleBilinear(linear, size, size), uv, triangles, charts, &interior,

@@ -16,7 +16,7 @@
 #include "io/image_io.h"
 #include "render/contact_sheet.h"
 #include "stages/cli.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/registry.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -132,7 +132,7 @@ struct FoundFrames {
 };
 
 std::vector<int64_t> FoundRows(const io::H5File& f) {
-  const std::vector<uint8_t> found = f.ReadVector<uint8_t>(frames::kFound, f.NumFrames(frames::kCrop));
+  const std::vector<uint8_t> found = f.ReadVector<uint8_t>(io::frames::kFound, f.NumFrames(io::frames::kCrop));
   std::vector<int64_t> rows;
   for (int64_t i = 0; i < static_cast<int64_t>(found.size()); ++i) if (found[i]) rows.push_back(i);
   return rows;
@@ -140,12 +140,12 @@ std::vector<int64_t> FoundRows(const io::H5File& f) {
 
 void ReadFrame(const io::H5File& f, int64_t row, int size, Image8* crop, face::Landmarks* l) {
   *crop = Image8(size, size, 3);
-  f.ReadFrames<uint8_t>(frames::kCrop, row, 1, crop->data.data());
-  f.ReadFrames<float>(frames::kLandmarksCrop, row, 1, l->data());
+  f.ReadFrames<uint8_t>(io::frames::kCrop, row, 1, crop->data.data());
+  f.ReadFrames<float>(io::frames::kLandmarksCrop, row, 1, l->data());
 }
 
 int CropSize(const io::H5File& f) {
-  const io::Shape s = f.CheckShape(frames::kCrop, {-1, -1, -1, 3});
+  const io::Shape s = f.CheckShape(io::frames::kCrop, {-1, -1, -1, 3});
   if (s[1] != s[2]) throw FileIOError(f.path() + ": /frames/crop is not square");
   return static_cast<int>(s[1]);
 }
@@ -186,8 +186,8 @@ void RunCurateBuild(const StageFlags& flags, AppState* state) {
     const int64_t crop_bytes = static_cast<int64_t>(size) * size * 3;
     std::vector<uint8_t> span_crops(span * crop_bytes);
     std::vector<float> span_landmarks(span * face::kNumLandmarks * 2);
-    in.ReadFrames<uint8_t>(frames::kCrop, first, span, span_crops.data());
-    in.ReadFrames<float>(frames::kLandmarksCrop, first, span, span_landmarks.data());
+    in.ReadFrames<uint8_t>(io::frames::kCrop, first, span, span_crops.data());
+    in.ReadFrames<float>(io::frames::kLandmarksCrop, first, span, span_landmarks.data());
     for (int64_t j = 0; j < count; ++j) {
       const int64_t k = rows[begin + j] - first;
       crops[j] = Image8(size, size, 3);
@@ -276,7 +276,7 @@ struct QueryItem {
 // The query by one frame of the ingest output the tree was built from.
 QueryItem QueryOfFrame(const io::H5File& frames, const std::string& frames_path, int64_t frame, int size) {
   const std::vector<uint8_t> found =
-      frames.ReadVector<uint8_t>(frames::kFound, frames.NumFrames(frames::kCrop));
+      frames.ReadVector<uint8_t>(io::frames::kFound, frames.NumFrames(io::frames::kCrop));
   if (frame >= static_cast<int64_t>(found.size())) {
     throw InvalidInputError("[curate.query] frame " + std::to_string(frame) + " is outside " +
                             frames_path + " (" + std::to_string(found.size()) + " frames)");
@@ -396,7 +396,7 @@ void WritePicks(const CurateQueryOptions& o, const StageContext& ctx, const io::
                 const std::string& frames_path, const io::H5File& frames,
                 const std::vector<QueryItem>& queries, const QueryPicks& p) {
   const std::vector<int64_t> source_index =
-      frames.ReadVector<int64_t>(frames::kSourceIndex, frames.NumFrames(frames::kCrop));
+      frames.ReadVector<int64_t>(io::frames::kSourceIndex, frames.NumFrames(io::frames::kCrop));
   std::vector<int64_t> unique_source;
   for (int64_t row : p.unique) unique_source.push_back(source_index[row]);
 

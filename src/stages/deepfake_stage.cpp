@@ -26,10 +26,10 @@
 #include "nn/augment.h"
 #include "nn/deepfake.h"
 #include "nn/deepfake_io.h"
-#include "stages/camera_file.h"
+#include "io/camera_file.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/holdout.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
@@ -47,7 +47,7 @@ namespace {
 
 // Image datasets a frames file may hold, in the order they are looked for when no dataset is
 // named: wild clips (synth clip), ingested video (ingest), synthetic samples (synth samples).
-const char* const kImageDatasets[] = {frames::kImage, frames::kCrop, "/samples/segmentation"};
+const char* const kImageDatasets[] = {io::frames::kImage, io::frames::kCrop, "/samples/segmentation"};
 
 constexpr int kPreviewRows = 4;  // image pairs in the preview grid
 
@@ -305,28 +305,28 @@ std::string FindImageDataset(const io::H5File& f, const std::string& requested) 
 
 // The width in pixels of the images a file's camera belongs to: its recorded width, else
 // the width of the file's first image dataset.
-double CameraImageWidth(const io::H5File& f, const CameraRecord& camera) {
+double CameraImageWidth(const io::H5File& f, const io::CameraRecord& camera) {
   if (camera.width) return *camera.width;
   for (const char* name : kImageDatasets) {
     if (f.Exists(name)) return static_cast<double>(f.DatasetShape(name)[2]);
   }
-  throw FileIOError(f.path() + ": " + kCameraPath + " has no width attribute and the file no images");
+  throw FileIOError(f.path() + ": " + io::kCameraPath + " has no width attribute and the file no images");
 }
 
 // The camera of `source`, when it has one, scaled to the translations, so that the
 // translations can be tracked as segmentation targets in that image frame.
 void CopyScaledCamera(const io::H5File& source, int size, io::H5File* out) {
-  if (!HasCamera(source)) return;
-  const CameraRecord from = ReadCamera(source);
+  if (!io::HasCamera(source)) return;
+  const io::CameraRecord from = io::ReadCamera(source);
   const double scale = size / CameraImageWidth(source, from);
-  CameraRecord to;
+  io::CameraRecord to;
   to.fx = from.fx * scale;
   to.fy = from.fy * scale;
   to.cx = from.cx * scale;
   to.cy = from.cy * scale;
   to.width = to.height = static_cast<double>(size);
   to.distance_cm = from.distance_cm;
-  WriteCamera(out, to);
+  io::WriteCamera(out, to);
 }
 
 // Frames usable for training: all, except ingest frames where no face was found and, with
@@ -336,8 +336,8 @@ std::vector<int64_t> UsableFrames(const io::H5File& f, const std::string& datase
   std::vector<int64_t> usable;
   std::vector<uint8_t> found;
   // Frames where ingest found no face (ingest outputs and synth crops) are not used.
-  if (dataset.rfind("/frames/", 0) == 0 && f.Exists(frames::kFound)) {
-    found = f.ReadVector<uint8_t>(frames::kFound, n);
+  if (dataset.rfind("/frames/", 0) == 0 && f.Exists(io::frames::kFound)) {
+    found = f.ReadVector<uint8_t>(io::frames::kFound, n);
   }
   for (int64_t i = 0; i < n; ++i) {
     if (IsHeldOut(i, holdout_every)) continue;
@@ -554,8 +554,8 @@ TrainingData ReadTrainingData(const DeepfakeTrainOptions& o, const dist::Comm& c
   d.b = ReadShard(o.b, o.b_dataset, comm, o.b_holdout_every);
   // Each rank holds its block of every paired clip, so that every person is seen by every rank.
   for (const std::string& path : o.paired) {
-    const ImageShard image = ReadShard(path, frames::kImage, comm);
-    const ImageShard target = ReadShard(path, frames::kSegmentation, comm);
+    const ImageShard image = ReadShard(path, io::frames::kImage, comm);
+    const ImageShard target = ReadShard(path, io::frames::kSegmentation, comm);
     if (image.size != target.size || image.total != target.total) {
       throw FileIOError(path + ": /frames/image and /frames/segmentation differ in size or count");
     }
@@ -885,15 +885,15 @@ class DeepfakeInference {
  private:
   // The output's datasets (rank 0); `resumed`: a continued file.
   void PrepareOutput(io::H5File* f, bool resumed) {
-    f->CreateFrames<uint8_t>(frames::kTranslated, {size_, size_, 3}, num_frames_, 16);
-    f->SetAttribute(frames::kTranslated, "meaning",
+    f->CreateFrames<uint8_t>(io::frames::kTranslated, {size_, size_, 3}, num_frames_, 16);
+    f->SetAttribute(io::frames::kTranslated, "meaning",
                     std::string(o_.decoder == "A" ? "D_A(E(I)): the frame in the synthetic (segmentation) style"
                                                   : "D_B(E(I))"));
-    f->SetAttribute(frames::kTranslated, "layout", std::string("frame, y, x, RGB"));
-    f->CreateFrames<float>(frames::kLatent, {latent_}, num_frames_, 16);
-    f->SetAttribute(frames::kLatent, "meaning", std::string("E(I), flattened [channels, y, x]"));
-    f->CreateFrames<float>(frames::kLatentOfTranslation, {latent_}, num_frames_, 16);
-    f->SetAttribute(frames::kLatentOfTranslation, "meaning",
+    f->SetAttribute(io::frames::kTranslated, "layout", std::string("frame, y, x, RGB"));
+    f->CreateFrames<float>(io::frames::kLatent, {latent_}, num_frames_, 16);
+    f->SetAttribute(io::frames::kLatent, "meaning", std::string("E(I), flattened [channels, y, x]"));
+    f->CreateFrames<float>(io::frames::kLatentOfTranslation, {latent_}, num_frames_, 16);
+    f->SetAttribute(io::frames::kLatentOfTranslation, "meaning",
                     std::string("E(D(E(I))) of the stored 8-bit translation (paper 000 Sec. 9)"));
     if (!resumed) WriteFrameRecords(f);
   }
@@ -902,15 +902,15 @@ class DeepfakeInference {
   // the frames without a face) and the camera scaled to the translations.
   void WriteFrameRecords(io::H5File* f) {
     WriteRegions(f, t_.regions);
-    if (dataset_ == frames::kCrop && frames_file_.Exists(frames::kFound)) {
-      f->WriteVector<uint8_t>(frames::kFound, frames_file_.ReadVector<uint8_t>(frames::kFound, num_frames_));
-      f->SetAttribute(frames::kFound, "meaning", std::string("1: ingest found the face, 0: no face"));
+    if (dataset_ == io::frames::kCrop && frames_file_.Exists(io::frames::kFound)) {
+      f->WriteVector<uint8_t>(io::frames::kFound, frames_file_.ReadVector<uint8_t>(io::frames::kFound, num_frames_));
+      f->SetAttribute(io::frames::kFound, "meaning", std::string("1: ingest found the face, 0: no face"));
     }
     if (o_.camera.empty()) {
       CopyScaledCamera(frames_file_, size_, f);
     } else {
       CopyScaledCamera(io::H5File::OpenRead(o_.camera), size_, f);
-      if (!HasCamera(*f)) throw FileIOError(o_.camera + ": no " + kCameraPath);
+      if (!io::HasCamera(*f)) throw FileIOError(o_.camera + ": no " + io::kCameraPath);
     }
   }
 
@@ -943,9 +943,9 @@ class DeepfakeInference {
       const auto translated = r.GetVector<uint8_t>();
       const auto code = r.GetVector<float>();
       const auto code2 = r.GetVector<float>();
-      f.WriteFrames<uint8_t>(frames::kTranslated, frames[k], 1, translated.data());
-      f.WriteFrames<float>(frames::kLatent, frames[k], 1, code.data());
-      f.WriteFrames<float>(frames::kLatentOfTranslation, frames[k], 1, code2.data());
+      f.WriteFrames<uint8_t>(io::frames::kTranslated, frames[k], 1, translated.data());
+      f.WriteFrames<float>(io::frames::kLatent, frames[k], 1, code.data());
+      f.WriteFrames<float>(io::frames::kLatentOfTranslation, frames[k], 1, code2.data());
     }
     io::DoneMask mask(&f, num_frames_);
     mask.MarkDone(frames);
@@ -964,7 +964,7 @@ class DeepfakeInference {
     Image8 overlay(3 * cell, std::max(1, overlay_frames) * cell, 3);
     for (int64_t frame = 0; frame < num_frames_; ++frame) {
       Image8 translated(size_, size_, 3);
-      f.ReadFrames<uint8_t>(frames::kTranslated, frame, 1, translated.data.data());
+      f.ReadFrames<uint8_t>(io::frames::kTranslated, frame, 1, translated.data.data());
       const auto labels = contour::ClassifyPixels(translated, palette);
       const auto borders = contour::ExtractBorders(labels, size_, size_, palette.num_labels(), border_options);
       for (const auto& b : borders) {

@@ -27,9 +27,9 @@
 #include "render/texel_map.h"
 #include "rig/compare.h"
 #include "rig/evaluate.h"
-#include "stages/camera_file.h"
+#include "io/camera_file.h"
 #include "stages/cli.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/holdout.h"
 #include "stages/ingested_frames.h"
 #include "stages/tracked_rig.h"
@@ -102,7 +102,7 @@ struct TrackTruth : track::TrackTruth {
 // shape in its weights (by name).
 TrackTruth ReadTruthLayout(const EvalTrackOptions& o, const io::H5File& truth, const rig::Rig& rig) {
   TrackTruth t;
-  const bool clip = truth.Exists(frames::kWeights);
+  const bool clip = truth.Exists(io::frames::kWeights);
   t.group = clip ? "/frames" : "/samples";
   const std::string& group = t.group;
   if (!truth.Exists(group + "/weights") || !truth.Exists(group + "/pose")) {
@@ -270,14 +270,14 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
   solves.seconds = track.ReadVector<double>("/track/seconds", frames);
   solves.cost = track.ReadVector<double>("/track/cost", frames);
   solves.termination = track.ReadVector<int32_t>("/track/termination", frames);
-  const CameraRecord truth_camera = ReadCamera(truth);
+  const io::CameraRecord truth_camera = io::ReadCamera(truth);
   t.camera = truth_camera.ToCamera();
   // The tracked rig is projected with the tracking camera, scaled to the truth's images.
   const render::Camera tracked_camera =
       tracked.HasCameraWidth() ? tracked.CameraForWidth(t.camera.width, t.camera.height) : t.camera;
   if (truth_camera.distance_cm) t.distance = static_cast<float>(*truth_camera.distance_cm);
   if (t.translation.rows() == 0 && t.distance <= 0.f) {
-    throw FileIOError(o.truth + ": no " + t.group + "/translation and no distance_cm on " + kCameraPath);
+    throw FileIOError(o.truth + ": no " + t.group + "/translation and no distance_cm on " + io::kCameraPath);
   }
 
   TrackScorer scorer(rig, tracked_rig, t, tracked_camera);
@@ -633,10 +633,10 @@ void RunEvalRerender(const StageFlags& flags, AppState* state) {
   const std::vector<uint8_t> face =
       appearance::FaceRegionMask(rig, render::BakeTexelMap(rig, kMaskTexels));
   io::H5File views = io::H5File::OpenRead(o.views);
-  const io::Shape uv_shape = views.CheckShape(frames::kUv, {-1, -1, -1, 3});
+  const io::Shape uv_shape = views.CheckShape(io::frames::kUv, {-1, -1, -1, 3});
   const int size = static_cast<int>(uv_shape[1]);
-  const io::Shape image_shape = views.CheckShape(frames::kImage, {uv_shape[0], -1, -1, 3});
-  views.CheckShape(frames::kTriangle, {uv_shape[0], size, size});
+  const io::Shape image_shape = views.CheckShape(io::frames::kImage, {uv_shape[0], -1, -1, 3});
+  views.CheckShape(io::frames::kTriangle, {uv_shape[0], size, size});
   Image8 image(static_cast<int>(image_shape[2]), static_cast<int>(image_shape[1]), 3);
   ImageF uv(size, size, 3), linear, normals(size, size, 3);
   Image<int32_t> triangles(size, size, 1);
@@ -651,9 +651,9 @@ void RunEvalRerender(const StageFlags& flags, AppState* state) {
   }
   for (int64_t f = 0; f < uv_shape[0]; ++f) {
     if (o.holdout_every > 0 && !IsHeldOut(f, o.holdout_every)) continue;
-    views.ReadFrames<uint8_t>(frames::kImage, f, 1, image.data.data());
-    views.ReadFrames<float>(frames::kUv, f, 1, uv.data.data());
-    views.ReadFrames<int32_t>(frames::kTriangle, f, 1, triangles.data.data());
+    views.ReadFrames<uint8_t>(io::frames::kImage, f, 1, image.data.data());
+    views.ReadFrames<float>(io::frames::kUv, f, 1, uv.data.data());
+    views.ReadFrames<int32_t>(io::frames::kTriangle, f, 1, triangles.data.data());
     for (int i = 0; i < size * size; ++i) {
       const int32_t t = triangles.data[i];
       const bool valid = t >= 0 && t < rig.triangles.rows() && face_normal[t].allFinite();

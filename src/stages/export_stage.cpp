@@ -17,7 +17,7 @@
 #include "face/frame_source.h"
 #include "render/contact_sheet.h"
 #include "render/landmarks.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/ingested_frames.h"
 #include "render/rasterizer.h"
 #include "render/shading.h"
@@ -395,10 +395,10 @@ class OverlayFrames {
   OverlayFrames(const std::string& path, const std::string& dataset, const TrackedRig& track) {
     file_ = io::H5File::OpenRead(path);
     dataset_ = dataset;
-    const bool ingested = file_.Exists(frames::kCropTransform) && file_.Exists("/sources/files");
+    const bool ingested = file_.Exists(io::frames::kCropTransform) && file_.Exists("/sources/files");
     if (dataset_.empty() && track.InSourceCamera() && ingested) {
       files_ = file_.ReadStrings("/sources/files");
-      file_id_ = file_.ReadVector<int32_t>(frames::kSourceFileId);
+      file_id_ = file_.ReadVector<int32_t>(io::frames::kSourceFileId);
       for (int32_t id : file_id_) {
         if (id < 0 || id >= static_cast<int32_t>(files_.size())) {
           throw FileIOError(path + ": /frames/source_file_id holds " + std::to_string(id) +
@@ -412,7 +412,7 @@ class OverlayFrames {
       return;
     }
     if (dataset_.empty()) {
-      for (const char* name : {frames::kImage, frames::kCrop}) {
+      for (const char* name : {io::frames::kImage, io::frames::kCrop}) {
         if (file_.Exists(name)) {
           dataset_ = name;
           break;
@@ -427,7 +427,7 @@ class OverlayFrames {
     frames_ = shape[0];
     buffer_ = Image8(static_cast<int>(shape[2]), static_cast<int>(shape[1]), 3);
     // A track of crops drawn over the crops: each frame in its crop's camera.
-    if (track.InSourceCamera() && ingested && dataset_ == frames::kCrop) {
+    if (track.InSourceCamera() && ingested && dataset_ == io::frames::kCrop) {
       ingested_ = std::make_unique<IngestedFrames>(IngestedFrames::Read(path));
     }
   }

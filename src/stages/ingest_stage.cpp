@@ -10,7 +10,7 @@
 #include "face/frame_source.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
 #include "util/bytes.h"
@@ -145,21 +145,21 @@ void CreateIngestDatasets(io::H5File* f, int64_t n, int S) {
   f->CreateFrames<float>("/detections/boxes", {kMaxFaces, 5}, n, 256);
   f->SetAttribute("/detections/boxes", "columns", std::string("x, y, width, height, score (source pixels), largest first"));
   f->CreateFrames<int32_t>("/detections/count", {}, n, 1024);
-  f->CreateFrames<int32_t>(frames::kImageSize, {2}, n, 1024);
-  f->SetAttribute(frames::kImageSize, "columns", std::string("width, height (source pixels)"));
-  f->CreateFrames<int32_t>(frames::kInputFlags, {}, n, 1024);
-  f->SetAttribute(frames::kInputFlags, "bits", std::string("1 grayscale, 2 16-bit, 4 float, 8 alpha dropped, 16 scaled down"));
-  f->CreateFrames<int32_t>(frames::kStatus, {}, n, 1024);
-  f->SetAttribute(frames::kStatus, "values", std::string("0 found, 1 no_face, 2 face_too_small, 3 unreadable, 4 subject_absent"));
-  f->CreateFrames<uint8_t>(frames::kFound, {}, n, 1024);
-  f->CreateFrames<float>(frames::kLandmarks, {kL, 2}, n, 64);
-  f->SetAttribute(frames::kLandmarks, "units", std::string("source pixels (x right, y down), iBUG 68 order"));
-  f->CreateFrames<float>(frames::kLandmarksCrop, {kL, 2}, n, 64);
-  f->SetAttribute(frames::kLandmarksCrop, "units", std::string("crop pixels (x right, y down), iBUG 68 order"));
-  f->CreateFrames<float>(frames::kCropTransform, {2, 3}, n, 256);
-  f->SetAttribute(frames::kCropTransform, "meaning", std::string("[s R | t]: source pixels -> crop pixels"));
-  f->CreateFrames<uint8_t>(frames::kCrop, {S, S, 3}, n, 8);
-  f->SetAttribute(frames::kCrop, "layout", std::string("frame, y, x, RGB"));
+  f->CreateFrames<int32_t>(io::frames::kImageSize, {2}, n, 1024);
+  f->SetAttribute(io::frames::kImageSize, "columns", std::string("width, height (source pixels)"));
+  f->CreateFrames<int32_t>(io::frames::kInputFlags, {}, n, 1024);
+  f->SetAttribute(io::frames::kInputFlags, "bits", std::string("1 grayscale, 2 16-bit, 4 float, 8 alpha dropped, 16 scaled down"));
+  f->CreateFrames<int32_t>(io::frames::kStatus, {}, n, 1024);
+  f->SetAttribute(io::frames::kStatus, "values", std::string("0 found, 1 no_face, 2 face_too_small, 3 unreadable, 4 subject_absent"));
+  f->CreateFrames<uint8_t>(io::frames::kFound, {}, n, 1024);
+  f->CreateFrames<float>(io::frames::kLandmarks, {kL, 2}, n, 64);
+  f->SetAttribute(io::frames::kLandmarks, "units", std::string("source pixels (x right, y down), iBUG 68 order"));
+  f->CreateFrames<float>(io::frames::kLandmarksCrop, {kL, 2}, n, 64);
+  f->SetAttribute(io::frames::kLandmarksCrop, "units", std::string("crop pixels (x right, y down), iBUG 68 order"));
+  f->CreateFrames<float>(io::frames::kCropTransform, {2, 3}, n, 256);
+  f->SetAttribute(io::frames::kCropTransform, "meaning", std::string("[s R | t]: source pixels -> crop pixels"));
+  f->CreateFrames<uint8_t>(io::frames::kCrop, {S, S, 3}, n, 8);
+  f->SetAttribute(io::frames::kCrop, "layout", std::string("frame, y, x, RGB"));
 }
 
 // Where each selected frame comes from, the crop settings and the assumed camera (a new output).
@@ -173,12 +173,12 @@ void WriteSourceRecords(io::H5File* f, const face::FrameSource& source,
     file_id[k] = source.FileIdOf(selected[k]);
     timecode[k] = source.TimecodeOf(selected[k]);
   }
-  f->WriteVector(frames::kSourceIndex, index);
-  f->SetAttribute(frames::kSourceIndex, "meaning", std::string("frame index in the video, or image index in the folder"));
-  f->WriteVector(frames::kSourceFileId, file_id);
-  f->SetAttribute(frames::kSourceFileId, "meaning", std::string("row of /sources/files"));
-  f->WriteVector(frames::kTimecode, timecode);
-  f->SetAttribute(frames::kTimecode, "units", std::string("seconds from the start of the video (-1: still image)"));
+  f->WriteVector(io::frames::kSourceIndex, index);
+  f->SetAttribute(io::frames::kSourceIndex, "meaning", std::string("frame index in the video, or image index in the folder"));
+  f->WriteVector(io::frames::kSourceFileId, file_id);
+  f->SetAttribute(io::frames::kSourceFileId, "meaning", std::string("row of /sources/files"));
+  f->WriteVector(io::frames::kTimecode, timecode);
+  f->SetAttribute(io::frames::kTimecode, "units", std::string("seconds from the start of the video (-1: still image)"));
   f->WriteStrings("/sources/files", source.Files());
   f->SetAttribute("/sources/files", "fps", source.Fps());
   f->SetAttribute("/sources/files", "num_frames", source.NumFrames());
@@ -299,9 +299,9 @@ class IngestRun {
       }
       f.WriteFrames<float>("/detections/boxes", first, count, boxes.data());
       f.WriteFrames<int32_t>("/detections/count", first, count, num.data());
-      f.WriteFrames<int32_t>(frames::kImageSize, first, count, size.data());
-      f.WriteFrames<int32_t>(frames::kInputFlags, first, count, flags.data());
-      f.WriteFrames<int32_t>(frames::kStatus, first, count, status.data());
+      f.WriteFrames<int32_t>(io::frames::kImageSize, first, count, size.data());
+      f.WriteFrames<int32_t>(io::frames::kInputFlags, first, count, flags.data());
+      f.WriteFrames<int32_t>(io::frames::kStatus, first, count, status.data());
     });
     io::DoneMask mask(&f, n_, "/progress/detected");
     mask.MarkDone(frames);
@@ -309,7 +309,7 @@ class IngestRun {
 
   // Rank 0: the smallest face the detector can find at the first readable frame's size.
   void LogSmallestFace(io::H5File* f, const std::vector<int32_t>& provisional) {
-    const std::vector<int32_t> image_size = f->Read<int32_t>(frames::kImageSize, {n_, 2});
+    const std::vector<int32_t> image_size = f->Read<int32_t>(io::frames::kImageSize, {n_, 2});
     for (int64_t k = 0; k < n_; ++k) {
       if (provisional[k] == kFrameUnreadable) continue;
       double w = image_size[2 * k], h = image_size[2 * k + 1];
@@ -337,7 +337,7 @@ class IngestRun {
       io::H5File& f = out_.output.file;
       const std::vector<float> boxes = f.Read<float>("/detections/boxes", {n_, kMaxFaces, 5});
       const std::vector<int32_t> count = f.ReadVector<int32_t>("/detections/count", n_);
-      const std::vector<int32_t> provisional = f.ReadVector<int32_t>(frames::kStatus, n_);
+      const std::vector<int32_t> provisional = f.ReadVector<int32_t>(io::frames::kStatus, n_);
       LogSmallestFace(&f, provisional);
       std::vector<std::vector<face::FaceBox>> faces(n_);
       for (int64_t k = 0; k < n_; ++k) {
@@ -368,10 +368,10 @@ class IngestRun {
           std::copy(values, values + 5, plan_box_.begin() + k * 5);
         }
       }
-      if (!f.Exists(frames::kBox)) {
-        f.WriteMatrix(frames::kBox, Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, 5, Eigen::RowMajor>>(
+      if (!f.Exists(io::frames::kBox)) {
+        f.WriteMatrix(io::frames::kBox, Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, 5, Eigen::RowMajor>>(
                                          plan_box_.data(), n_, 5));
-        f.SetAttribute(frames::kBox, "columns", std::string("x, y, width, height, score of the subject's face (source pixels; zeros: none)"));
+        f.SetAttribute(io::frames::kBox, "columns", std::string("x, y, width, height, score of the subject's face (source pixels; zeros: none)"));
       }
       io::DoneMask done(&f, n_, "/progress/done");
       pending_landmarks_ = done.Pending();
@@ -439,12 +439,12 @@ class IngestRun {
         std::copy(t.begin(), t.end(), tf.begin() + j * 6);
         std::copy(img.begin(), img.end(), crops.begin() + j * S * S * 3);
       }
-      f.WriteFrames<int32_t>(frames::kStatus, first, count, status.data());
-      f.WriteFrames<uint8_t>(frames::kFound, first, count, found.data());
-      f.WriteFrames<float>(frames::kLandmarks, first, count, lm.data());
-      f.WriteFrames<float>(frames::kLandmarksCrop, first, count, lm_crop.data());
-      f.WriteFrames<float>(frames::kCropTransform, first, count, tf.data());
-      f.WriteFrames<uint8_t>(frames::kCrop, first, count, crops.data());
+      f.WriteFrames<int32_t>(io::frames::kStatus, first, count, status.data());
+      f.WriteFrames<uint8_t>(io::frames::kFound, first, count, found.data());
+      f.WriteFrames<float>(io::frames::kLandmarks, first, count, lm.data());
+      f.WriteFrames<float>(io::frames::kLandmarksCrop, first, count, lm_crop.data());
+      f.WriteFrames<float>(io::frames::kCropTransform, first, count, tf.data());
+      f.WriteFrames<uint8_t>(io::frames::kCrop, first, count, crops.data());
     });
     io::DoneMask mask(&f, n_, "/progress/done");
     mask.MarkDone(frames);
@@ -457,8 +457,8 @@ class IngestRun {
       if (!comm_.IsMainRank()) return;
       io::H5File& f = out_.output.file;
       f.Flush();
-      summary = SummaryOf(f.ReadVector<int32_t>(frames::kStatus, n_),
-                          f.ReadVector<int32_t>(frames::kInputFlags, n_));
+      summary = SummaryOf(f.ReadVector<int32_t>(io::frames::kStatus, n_),
+                          f.ReadVector<int32_t>(io::frames::kInputFlags, n_));
       for (const auto& [name, value] :
            {std::pair<const char*, int64_t>{"num_frames", summary.frames}, {"num_found", summary.found},
             {"num_no_face", summary.no_face}, {"num_face_too_small", summary.face_too_small},
@@ -508,8 +508,8 @@ class IngestRun {
 
 IngestSummary ReadIngestSummary(const std::string& path) {
   io::H5File f = io::H5File::OpenRead(path);
-  const std::vector<int32_t> status = f.ReadVector<int32_t>(frames::kStatus);
-  return SummaryOf(status, f.ReadVector<int32_t>(frames::kInputFlags, static_cast<int64_t>(status.size())));
+  const std::vector<int32_t> status = f.ReadVector<int32_t>(io::frames::kStatus);
+  return SummaryOf(status, f.ReadVector<int32_t>(io::frames::kInputFlags, static_cast<int64_t>(status.size())));
 }
 
 IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const io::Config& resolved) {

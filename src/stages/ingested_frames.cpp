@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "io/hdf5.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "util/errors.h"
 
 namespace facecap::stages {
@@ -18,33 +18,33 @@ IngestedFrames IngestedFrames::Read(const std::string& path) {
   io::H5File f = io::H5File::OpenRead(path);
   IngestedFrames r;
   r.path_ = path;
-  if (!f.Exists(frames::kCropTransform) || !f.Exists(frames::kFound)) {
+  if (!f.Exists(io::frames::kCropTransform) || !f.Exists(io::frames::kFound)) {
     throw FileIOError(path + ": not an ingest output (no /frames/crop_transform and /frames/found)");
   }
   if (!f.Exists("/camera/fov_deg")) {
     throw FileIOError(path + ": no /camera/fov_deg (written by an older facecap ingest): rerun "
                       "ingest to record the camera");
   }
-  const io::Shape crop = f.CheckShape(frames::kCrop, {-1, -1, -1, 3});
+  const io::Shape crop = f.CheckShape(io::frames::kCrop, {-1, -1, -1, 3});
   const int64_t n = crop[0];
   if (crop[1] != crop[2] || crop[1] <= 0 || crop[1] > (1 << 16)) {
     throw FileIOError(path + ": dataset /frames/crop has shape " + io::ShapeToString(crop) +
                       ", expected square crops [*, S, S, 3] with S > 0");
   }
   r.crop_size_ = static_cast<int>(crop[2]);
-  f.CheckShape(frames::kFound, {n});
-  f.CheckShape(frames::kCropTransform, {n, 2, 3});
-  f.CheckShape(frames::kLandmarks, {n, 68, 2});
-  f.CheckShape(frames::kImageSize, {n, 2});
-  f.CheckShape(frames::kSourceIndex, {n});
-  f.CheckShape(frames::kTimecode, {n});
+  f.CheckShape(io::frames::kFound, {n});
+  f.CheckShape(io::frames::kCropTransform, {n, 2, 3});
+  f.CheckShape(io::frames::kLandmarks, {n, 68, 2});
+  f.CheckShape(io::frames::kImageSize, {n, 2});
+  f.CheckShape(io::frames::kSourceIndex, {n});
+  f.CheckShape(io::frames::kTimecode, {n});
   f.CheckShape("/camera/fov_deg", {1});
-  r.found_ = f.ReadVector<uint8_t>(frames::kFound, n);
-  r.source_index_ = f.ReadVector<int64_t>(frames::kSourceIndex, n);
-  r.timecode_ = f.ReadVector<double>(frames::kTimecode, n);
-  r.image_size_ = f.Read<int32_t>(frames::kImageSize, {n, 2});
-  r.crop_transform_ = f.Read<float>(frames::kCropTransform, {n, 2, 3});
-  r.landmarks_ = f.Read<float>(frames::kLandmarks, {n, 68, 2});
+  r.found_ = f.ReadVector<uint8_t>(io::frames::kFound, n);
+  r.source_index_ = f.ReadVector<int64_t>(io::frames::kSourceIndex, n);
+  r.timecode_ = f.ReadVector<double>(io::frames::kTimecode, n);
+  r.image_size_ = f.Read<int32_t>(io::frames::kImageSize, {n, 2});
+  r.crop_transform_ = f.Read<float>(io::frames::kCropTransform, {n, 2, 3});
+  r.landmarks_ = f.Read<float>(io::frames::kLandmarks, {n, 68, 2});
   r.fov_deg_ = f.ReadVector<double>("/camera/fov_deg", 1)[0];
   if (!(r.fov_deg_ > 1. && r.fov_deg_ < 170.)) {
     throw FileIOError(path + ": /camera/fov_deg " + std::to_string(r.fov_deg_) + " is not in (1, 170)");

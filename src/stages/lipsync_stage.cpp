@@ -22,9 +22,9 @@
 #include "lipsync/visemes.h"
 #include "rig/compare.h"
 #include "rig/pose.h"
-#include "stages/camera_file.h"
+#include "io/camera_file.h"
 #include "stages/cli.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/registry.h"
 #include "stages/speech_file.h"
 #include "stages/track_file.h"
@@ -378,15 +378,15 @@ void RunEvalLipsync(const StageFlags& flags, AppState* state) {
   LipsyncTruth truth;
   {
     io::H5File f = io::H5File::OpenRead(o.truth);
-    for (const char* name : {frames::kWeights, frames::kShapeNames, frames::kPose, "/rig/neutral"}) {
+    for (const char* name : {io::frames::kWeights, io::frames::kShapeNames, io::frames::kPose, "/rig/neutral"}) {
       if (!f.Exists(name)) throw FileIOError(o.truth + ": no " + std::string(name) + " (not a clip from synth clip?)");
     }
     truth.rig = io::ReadRig(f);
-    truth.names = f.ReadStrings(frames::kShapeNames);
-    truth.weights = f.ReadMatrix<float>(frames::kWeights);
-    truth.pose = f.ReadMatrix<float>(frames::kPose);
-    truth.fps = HasCamera(f) ? ReadCamera(f).fps.value_or(0.) : 0.;
-    if (!(truth.fps > 0.)) throw FileIOError(o.truth + ": no frame rate (" + kCameraPath + "@fps)");
+    truth.names = f.ReadStrings(io::frames::kShapeNames);
+    truth.weights = f.ReadMatrix<float>(io::frames::kWeights);
+    truth.pose = f.ReadMatrix<float>(io::frames::kPose);
+    truth.fps = io::HasCamera(f) ? io::ReadCamera(f).fps.value_or(0.) : 0.;
+    if (!(truth.fps > 0.)) throw FileIOError(o.truth + ": no frame rate (" + io::kCameraPath + "@fps)");
     if (truth.names.size() != static_cast<size_t>(truth.rig.NumShapes()) ||
         truth.weights.cols() != truth.rig.NumShapes()) {
       throw FileIOError(o.truth + ": its weights, shape names and rig do not agree");

@@ -25,7 +25,7 @@
 #include "rig/evaluate.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/ingested_frames.h"
 #include "stages/person_file.h"
 #include "stages/registry.h"
@@ -46,7 +46,7 @@ struct PersonFitStageOptions {
   std::string rig = "rig.h5";            // the generic rig with identity modes
   std::string frames = "frames.h5";      // ingest output: landmarks, crops, camera
   std::string translations = "";        // deepfake infer output of those frames ("": none)
-  std::string translations_dataset = frames::kTranslated;
+  std::string translations_dataset = io::frames::kTranslated;
   std::string out = "person.h5";         // the person's rig
   int count = 48;                        // frames chosen for pose variety
   int size = 64;                         // target size without translations (pixels)

@@ -18,7 +18,7 @@
 #include "rig/evaluate.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/ingested_frames.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
@@ -44,7 +44,7 @@ constexpr int kLandmarks = kSampleLandmarks - kFirstLandmark;
 // A pose angle a (rad) is the network's a / kPoseRange + 0.5, inside the sigmoid's (0, 1).
 constexpr double kPoseRange = M_PI;
 // The codes of deepfake infer's outputs the regressor reads: e = E(D_S(E(I))).
-constexpr const char* kCodes = frames::kLatentOfTranslation;
+constexpr const char* kCodes = io::frames::kLatentOfTranslation;
 
 // [regress.train]
 struct RegressTrainOptions {
@@ -171,8 +171,8 @@ std::vector<float> ReadCodeRows(const std::string& path, int64_t rows, int64_t* 
 // edge of /frames/box, carried into the crop, over the frames with a face.
 face::FaceBox TypicalCropBox(const std::string& path, const IngestedFrames& ingested) {
   const io::H5File f = io::H5File::OpenRead(path);
-  if (!f.Exists(frames::kBox)) throw FileIOError(path + ": no /frames/box (an ingest output is expected)");
-  const std::vector<float> boxes = f.Read<float>(frames::kBox, f.CheckShape(frames::kBox, {ingested.NumFrames(), 5}));
+  if (!f.Exists(io::frames::kBox)) throw FileIOError(path + ": no /frames/box (an ingest output is expected)");
+  const std::vector<float> boxes = f.Read<float>(io::frames::kBox, f.CheckShape(io::frames::kBox, {ingested.NumFrames(), 5}));
   std::vector<float> edges[4];
   for (int64_t k = 0; k < ingested.NumFrames(); ++k) {
     if (!ingested.Found(k)) continue;
@@ -205,10 +205,10 @@ face::FaceBox TypicalCropBox(const std::string& path, const IngestedFrames& inge
 std::vector<float> LandmarksOfTranslations(const std::string& path, const std::vector<int64_t>& rows,
                                            const face::FaceBox& box, int threads) {
   const io::H5File f = io::H5File::OpenRead(path);
-  if (!f.Exists(frames::kTranslated)) {
+  if (!f.Exists(io::frames::kTranslated)) {
     throw FileIOError(path + ": no /frames/translated (an output of deepfake infer is expected)");
   }
-  const io::Shape shape = f.CheckShape(frames::kTranslated, {-1, -1, -1, 3});
+  const io::Shape shape = f.CheckShape(io::frames::kTranslated, {-1, -1, -1, 3});
   const int height = static_cast<int>(shape[1]), width = static_cast<int>(shape[2]);
   const int upsample = std::clamp(256 / std::max(1, width), 1, 16);
   face::FaceBox pixels;
@@ -220,7 +220,7 @@ std::vector<float> LandmarksOfTranslations(const std::string& path, const std::v
   analyzers[0] = std::make_unique<face::FaceAnalyzer>();
   for (size_t t = 1; t < analyzers.size(); ++t) analyzers[t] = analyzers[0]->Clone();
   // Read first (the HDF5 library is not thread-safe), fitted on the threads.
-  const std::vector<uint8_t> images = f.Read<uint8_t>(frames::kTranslated, shape);
+  const std::vector<uint8_t> images = f.Read<uint8_t>(io::frames::kTranslated, shape);
   const size_t image_size = static_cast<size_t>(width) * height * 3;
   std::vector<float> out(rows.size() * 2 * kLandmarks);
   const int chunks = static_cast<int>(analyzers.size());

@@ -2,8 +2,8 @@
 
 #include <Eigen/Core>
 
-#include "stages/camera_file.h"
-#include "stages/frames_file.h"
+#include "io/camera_file.h"
+#include "io/frames_file.h"
 #include "util/bytes.h"
 #include "util/errors.h"
 
@@ -40,17 +40,17 @@ void WriteSampleRecords(io::H5File* f, const rig::Rig& rig, const render::Camera
   }
   f->WriteStrings("/regions/names", region_names);
   f->WriteMatrix("/regions/colors", colors);
-  CameraRecord record = CameraRecord::Of(camera);
+  io::CameraRecord record = io::CameraRecord::Of(camera);
   record.width = record.height = std::nullopt;
   record.distance_cm = distance;
-  WriteCamera(f, record);
+  io::WriteCamera(f, record);
 }
 
 void CopySampleRecords(const io::H5File& from, io::H5File* to) {
   to->WriteStrings("/samples/shape_names", from.ReadStrings("/samples/shape_names"));
   to->WriteStrings("/regions/names", from.ReadStrings("/regions/names"));
   to->WriteMatrix("/regions/colors", from.ReadMatrix<float>("/regions/colors", -1, 3));
-  WriteCamera(to, ReadCamera(from));
+  io::WriteCamera(to, io::ReadCamera(from));
 }
 
 std::vector<uint8_t> PackSampleRow(const std::vector<uint8_t>& segmentation,
@@ -117,7 +117,7 @@ synth::CodeMatrix ReadCodes(const io::H5File& f, const std::string& dataset,
                             std::vector<int64_t>* rows) {
   const io::Shape shape = f.CheckShape(dataset, {-1, -1});
   std::vector<uint8_t> found(shape[0], 1);
-  if (f.Exists(frames::kFound)) found = f.ReadVector<uint8_t>(frames::kFound, shape[0]);
+  if (f.Exists(io::frames::kFound)) found = f.ReadVector<uint8_t>(io::frames::kFound, shape[0]);
   const synth::CodeMatrix all = f.ReadMatrix<float>(dataset);
   rows->clear();
   for (int64_t i = 0; i < shape[0]; ++i) {

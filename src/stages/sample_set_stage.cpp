@@ -9,7 +9,7 @@
 #include "nn/augment.h"
 #include "render/contact_sheet.h"
 #include "stages/cli.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/registry.h"
 #include "stages/sample_file.h"
 #include "stages/stage_paths.h"
@@ -133,10 +133,10 @@ void RunSynthContract(const StageFlags& flags, AppState* state) {
   }
   const bool sheet = o.sheet != "none";
   io::H5File frames_file;
-  std::string real_dataset = frames::kTranslated;
+  std::string real_dataset = io::frames::kTranslated;
   if (sheet && !o.frames.empty()) {
     frames_file = io::H5File::OpenRead(o.frames);
-    real_dataset = frames_file.Exists(frames::kCrop) ? frames::kCrop : frames::kImage;
+    real_dataset = frames_file.Exists(io::frames::kCrop) ? io::frames::kCrop : io::frames::kImage;
   }
   const io::H5File& real_images = o.frames.empty() ? frame_codes_file : frames_file;
   if (sheet) {

@@ -12,10 +12,10 @@
 #include "io/texture_file.h"
 #include "render/contact_sheet.h"
 #include "rig/demo_head.h"
-#include "stages/camera_file.h"
+#include "io/camera_file.h"
 #include "stages/cli.h"
 #include "stages/frame_loop.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/frames_video.h"
 #include "stages/registry.h"
 #include "stages/resumable.h"
@@ -138,23 +138,23 @@ struct ClipThread {
 
 // The per-frame datasets of a clip in a new or continued output.
 void CreateClipDatasets(io::H5File* f, int H, int W, int S, int64_t frames) {
-  f->CreateFrames<uint8_t>(frames::kImage, {H, W, 3}, frames, 1);
-  f->SetAttribute(frames::kImage, "layout", std::string("frame, y, x, RGB (sRGB)"));
-  f->CreateFrames<uint8_t>(frames::kSegmentation, {H, W, 3}, frames, 1);
-  f->SetAttribute(frames::kSegmentation, "layout",
+  f->CreateFrames<uint8_t>(io::frames::kImage, {H, W, 3}, frames, 1);
+  f->SetAttribute(io::frames::kImage, "layout", std::string("frame, y, x, RGB (sRGB)"));
+  f->CreateFrames<uint8_t>(io::frames::kSegmentation, {H, W, 3}, frames, 1);
+  f->SetAttribute(io::frames::kSegmentation, "layout",
                   std::string("frame, y, x, RGB; region colours of /regions/colors"));
-  f->CreateFrames<float>(frames::kPose, {3}, frames, 1024);
-  f->SetAttribute(frames::kPose, "columns", std::string("pitch, yaw, roll"));
-  f->SetAttribute(frames::kPose, "units", std::string("rad"));
-  f->CreateFrames<float>(frames::kTranslation, {3}, frames, 1024);
-  f->SetAttribute(frames::kTranslation, "units",
+  f->CreateFrames<float>(io::frames::kPose, {3}, frames, 1024);
+  f->SetAttribute(io::frames::kPose, "columns", std::string("pitch, yaw, roll"));
+  f->SetAttribute(io::frames::kPose, "units", std::string("rad"));
+  f->CreateFrames<float>(io::frames::kTranslation, {3}, frames, 1024);
+  f->SetAttribute(io::frames::kTranslation, "units",
                   std::string("cm, camera space (x right, y up, camera looks down -z)"));
-  f->CreateFrames<float>(frames::kWeights, {S}, frames, 256);
-  f->CreateFrames<float>(frames::kLandmarks, {kNumLandmarks, 2}, frames, 256);
-  f->SetAttribute(frames::kLandmarks, "units", std::string("pixels (x right, y down), iBUG 68"));
-  f->CreateFrames<uint8_t>(frames::kLandmarkVisible, {kNumLandmarks}, frames, 1024);
-  f->CreateFrames<float>(frames::kDegradation, {kNumDegradationColumns}, frames, 1024);
-  f->SetAttribute(frames::kDegradation, "columns",
+  f->CreateFrames<float>(io::frames::kWeights, {S}, frames, 256);
+  f->CreateFrames<float>(io::frames::kLandmarks, {kNumLandmarks, 2}, frames, 256);
+  f->SetAttribute(io::frames::kLandmarks, "units", std::string("pixels (x right, y down), iBUG 68"));
+  f->CreateFrames<uint8_t>(io::frames::kLandmarkVisible, {kNumLandmarks}, frames, 1024);
+  f->CreateFrames<float>(io::frames::kDegradation, {kNumDegradationColumns}, frames, 1024);
+  f->SetAttribute(io::frames::kDegradation, "columns",
                   std::string("exposure, defocus_sigma_px, motion_blur_px, motion_blur_angle_rad, "
                               "noise_sigma_levels, jpeg_quality (0: none)"));
 }
@@ -163,7 +163,7 @@ void CreateClipDatasets(io::H5File* f, int H, int W, int S, int64_t frames) {
 void WriteShapesAndRegions(io::H5File* f, const rig::Rig& person) {
   std::vector<std::string> names;
   for (const auto& s : person.shapes) names.push_back(s.name);
-  f->WriteStrings(frames::kShapeNames, names);
+  f->WriteStrings(io::frames::kShapeNames, names);
   std::vector<std::string> region_names;
   Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> colors(person.regions.size(), 3);
   for (size_t r = 0; r < person.regions.size(); ++r) {
@@ -266,12 +266,12 @@ class SynthClipRun {
     const render::Camera& camera = renderer_->camera();
     const int H = co_.size, W = co_.size;
     WriteShapesAndRegions(f, person_);
-    CameraRecord record = CameraRecord::Of(camera);
+    io::CameraRecord record = io::CameraRecord::Of(camera);
     record.width = W;
     record.height = H;
     record.distance_cm = renderer_->distance();
     record.fps = co_.fps;
-    WriteCamera(f, record);
+    io::WriteCamera(f, record);
     WriteIdentity(f, person_, co_, renderer_->colors());
     io::WriteColorTexture(f, io::kTrueAlbedoPath, renderer_->albedo_texture());
     io::WriteRig(person_, f, "/rig");
@@ -355,14 +355,14 @@ class SynthClipRun {
         append(&vis, r.GetVector<uint8_t>());
         append(&degradation, r.GetVector<float>());
       }
-      f.WriteFrames<uint8_t>(frames::kImage, frames[k], n, image.data());
-      f.WriteFrames<uint8_t>(frames::kSegmentation, frames[k], n, seg.data());
-      f.WriteFrames<float>(frames::kPose, frames[k], n, angles.data());
-      f.WriteFrames<float>(frames::kTranslation, frames[k], n, translation.data());
-      f.WriteFrames<float>(frames::kWeights, frames[k], n, weights.data());
-      f.WriteFrames<float>(frames::kLandmarks, frames[k], n, xy.data());
-      f.WriteFrames<uint8_t>(frames::kLandmarkVisible, frames[k], n, vis.data());
-      f.WriteFrames<float>(frames::kDegradation, frames[k], n, degradation.data());
+      f.WriteFrames<uint8_t>(io::frames::kImage, frames[k], n, image.data());
+      f.WriteFrames<uint8_t>(io::frames::kSegmentation, frames[k], n, seg.data());
+      f.WriteFrames<float>(io::frames::kPose, frames[k], n, angles.data());
+      f.WriteFrames<float>(io::frames::kTranslation, frames[k], n, translation.data());
+      f.WriteFrames<float>(io::frames::kWeights, frames[k], n, weights.data());
+      f.WriteFrames<float>(io::frames::kLandmarks, frames[k], n, xy.data());
+      f.WriteFrames<uint8_t>(io::frames::kLandmarkVisible, frames[k], n, vis.data());
+      f.WriteFrames<float>(io::frames::kDegradation, frames[k], n, degradation.data());
       k = end;
     }
     io::DoneMask mask(&f, co_.frames);
@@ -456,11 +456,11 @@ void RunSynthSheet(const StageFlags& flags, AppState* state) {
   const auto o = ResolveStageOptions<SynthSheetOptions>(flags, &ctx, &resolved);
   if (!ctx.comm.IsMainRank()) return;
   io::H5File f = io::H5File::OpenRead(o.clip);
-  for (const char* name : {frames::kImage, frames::kSegmentation, frames::kLandmarks,
-                           frames::kLandmarkVisible}) {
+  for (const char* name : {io::frames::kImage, io::frames::kSegmentation, io::frames::kLandmarks,
+                           io::frames::kLandmarkVisible}) {
     if (!f.Exists(name)) throw FileIOError(o.clip + ": no " + std::string(name) + " (not a clip from synth clip?)");
   }
-  const io::Shape shape = f.DatasetShape(frames::kImage);
+  const io::Shape shape = f.DatasetShape(io::frames::kImage);
   const int64_t num_frames = shape[0];
   const int H = static_cast<int>(shape[1]), W = static_cast<int>(shape[2]);
   const int shown = static_cast<int>(std::min<int64_t>(o.frames, num_frames));
@@ -468,14 +468,14 @@ void RunSynthSheet(const StageFlags& flags, AppState* state) {
   for (int i = 0; i < shown; ++i) {
     const int64_t frame = shown == 1 ? 0 : (i * (num_frames - 1)) / (shown - 1);
     Image8 image(W, H, 3), seg(W, H, 3);
-    f.ReadFrames<uint8_t>(frames::kImage, frame, 1, image.data.data());
-    f.ReadFrames<uint8_t>(frames::kSegmentation, frame, 1, seg.data.data());
+    f.ReadFrames<uint8_t>(io::frames::kImage, frame, 1, image.data.data());
+    f.ReadFrames<uint8_t>(io::frames::kSegmentation, frame, 1, seg.data.data());
     Image8 seg_big = synth::UpscaleNearest(seg, o.scale);
     if (o.landmarks) {
       std::vector<float> xy(kNumLandmarks * 2);
       std::vector<uint8_t> visible(kNumLandmarks);
-      f.ReadFrames<float>(frames::kLandmarks, frame, 1, xy.data());
-      f.ReadFrames<uint8_t>(frames::kLandmarkVisible, frame, 1, visible.data());
+      f.ReadFrames<float>(io::frames::kLandmarks, frame, 1, xy.data());
+      f.ReadFrames<uint8_t>(io::frames::kLandmarkVisible, frame, 1, visible.data());
       for (int l = 0; l < kNumLandmarks; ++l) {
         if (!visible[l]) continue;
         const int cx = static_cast<int>(xy[2 * l] * o.scale), cy = static_cast<int>(xy[2 * l + 1] * o.scale);

@@ -11,7 +11,7 @@
 
 #include "io/hdf5.h"
 #include "stages/cli.h"
-#include "stages/frames_file.h"
+#include "io/frames_file.h"
 #include "stages/ingested_frames.h"
 #include "stages/registry.h"
 #include "util/errors.h"
@@ -76,19 +76,19 @@ void RunSynthCrops(const StageFlags& flags, AppState* state) {
   if (!o.Check(&why)) throw InvalidInputError("synth crops: " + why);
   io::H5File clip = io::H5File::OpenRead(o.clip);
   io::H5File frames = io::H5File::OpenRead(o.frames);
-  const io::Shape seg = clip.CheckShape(frames::kSegmentation, {-1, -1, -1, 3});
+  const io::Shape seg = clip.CheckShape(io::frames::kSegmentation, {-1, -1, -1, 3});
   if (!clip.Exists("/regions/colors") || !clip.Exists("/regions/names")) {
     throw FileIOError(o.clip + ": no /regions (not a synth clip output)");
   }
-  const io::Shape crop = frames.CheckShape(frames::kCrop, {-1, -1, -1, 3});
+  const io::Shape crop = frames.CheckShape(io::frames::kCrop, {-1, -1, -1, 3});
   const int64_t n = crop[0];
   const int size = static_cast<int>(crop[1]);
-  frames.CheckShape(frames::kCropTransform, {n, 2, 3});
-  frames.CheckShape(frames::kFound, {n});
-  frames.CheckShape(frames::kSourceIndex, {n});
-  const std::vector<int64_t> source = frames.ReadVector<int64_t>(frames::kSourceIndex, n);
-  const std::vector<uint8_t> found = frames.ReadVector<uint8_t>(frames::kFound, n);
-  const std::vector<float> transform = frames.Read<float>(frames::kCropTransform, {n, 2, 3});
+  frames.CheckShape(io::frames::kCropTransform, {n, 2, 3});
+  frames.CheckShape(io::frames::kFound, {n});
+  frames.CheckShape(io::frames::kSourceIndex, {n});
+  const std::vector<int64_t> source = frames.ReadVector<int64_t>(io::frames::kSourceIndex, n);
+  const std::vector<uint8_t> found = frames.ReadVector<uint8_t>(io::frames::kFound, n);
+  const std::vector<float> transform = frames.Read<float>(io::frames::kCropTransform, {n, 2, 3});
   for (int64_t k = 0; k < n; ++k) {
     if (source[k] < 0 || source[k] >= seg[0]) {
       throw FileIOError(o.frames + ": frame " + std::to_string(k) + " comes from source frame " +
@@ -99,16 +99,16 @@ void RunSynthCrops(const StageFlags& flags, AppState* state) {
   const int W = static_cast<int>(seg[2]), H = static_cast<int>(seg[1]);
   io::H5File f = io::H5File::CreateAtomic(o.out);
   f.WriteProvenance(MakeProvenance(ctx, "synth crops", resolved));
-  f.CreateFrames<uint8_t>(frames::kImage, {size, size, 3}, n, 8);
-  f.SetAttribute(frames::kImage, "layout", std::string("frame, y, x, RGB: ingest's crops"));
-  f.CreateFrames<uint8_t>(frames::kSegmentation, {size, size, 3}, n, 8);
-  f.SetAttribute(frames::kSegmentation, "layout",
+  f.CreateFrames<uint8_t>(io::frames::kImage, {size, size, 3}, n, 8);
+  f.SetAttribute(io::frames::kImage, "layout", std::string("frame, y, x, RGB: ingest's crops"));
+  f.CreateFrames<uint8_t>(io::frames::kSegmentation, {size, size, 3}, n, 8);
+  f.SetAttribute(io::frames::kSegmentation, "layout",
                  std::string("frame, y, x, RGB: the clip's segmentation through each crop "
                              "transform (nearest); region colours of /regions/colors"));
-  f.WriteVector(frames::kFound, found);
-  f.SetAttribute(frames::kFound, "meaning", std::string("1: ingest found the face (frames with 0 are not used)"));
-  f.Write<float>(frames::kCropTransform, {n, 2, 3}, transform.data());
-  f.WriteVector(frames::kSourceIndex, source);
+  f.WriteVector(io::frames::kFound, found);
+  f.SetAttribute(io::frames::kFound, "meaning", std::string("1: ingest found the face (frames with 0 are not used)"));
+  f.Write<float>(io::frames::kCropTransform, {n, 2, 3}, transform.data());
+  f.WriteVector(io::frames::kSourceIndex, source);
   const std::vector<std::string> region_names = clip.ReadStrings("/regions/names");
   f.WriteStrings("/regions/names", region_names);
   const auto colors =
@@ -123,13 +123,13 @@ void RunSynthCrops(const StageFlags& flags, AppState* state) {
     const int64_t count = std::min(kBlock, n - first);
     crops.resize(count * crop_bytes);
     warped.assign(count * crop_bytes, 0);
-    frames.ReadFrames<uint8_t>(frames::kCrop, first, count, crops.data());
+    frames.ReadFrames<uint8_t>(io::frames::kCrop, first, count, crops.data());
     // The source frames of the block, in one read when they are consecutive.
     const int64_t lo = source[first], hi = source[first + count - 1];
     const bool consecutive = hi - lo == count - 1;
     if (consecutive) {
       segmentation.resize(count * frame_bytes);
-      clip.ReadFrames<uint8_t>(frames::kSegmentation, lo, count, segmentation.data());
+      clip.ReadFrames<uint8_t>(io::frames::kSegmentation, lo, count, segmentation.data());
     } else {
       segmentation.resize(frame_bytes);
     }
@@ -137,11 +137,11 @@ void RunSynthCrops(const StageFlags& flags, AppState* state) {
       const int64_t k = first + j;
       if (!found[k]) continue;
       const uint8_t* seg = segmentation.data() + (consecutive ? j * frame_bytes : 0);
-      if (!consecutive) clip.ReadFrames<uint8_t>(frames::kSegmentation, source[k], 1, segmentation.data());
+      if (!consecutive) clip.ReadFrames<uint8_t>(io::frames::kSegmentation, source[k], 1, segmentation.data());
       WarpNearest(seg, W, H, &transform[6 * k], size, warped.data() + j * crop_bytes);
     }
-    f.WriteFrames<uint8_t>(frames::kImage, first, count, crops.data());
-    f.WriteFrames<uint8_t>(frames::kSegmentation, first, count, warped.data());
+    f.WriteFrames<uint8_t>(io::frames::kImage, first, count, crops.data());
+    f.WriteFrames<uint8_t>(io::frames::kSegmentation, first, count, warped.data());
     progress.Update(first + count);
   }
   progress.Finish();

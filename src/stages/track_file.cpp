@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "stages/camera_file.h"
+#include "io/camera_file.h"
 #include "util/errors.h"
 
 namespace facecap::stages {
@@ -33,8 +33,8 @@ void CreateTrackDatasets(io::H5File* f, int64_t frames, int S) {
 
 void WriteSourceFrames(io::H5File* f, const IngestedFrames& ingested, const std::string& frames_path,
                        int64_t frames) {
-  f->SetAttribute(kCameraPath, "fov_deg", ingested.fov_deg());
-  f->SetAttribute(kCameraPath, "meaning",
+  f->SetAttribute(io::kCameraPath, "fov_deg", ingested.fov_deg());
+  f->SetAttribute(io::kCameraPath, "meaning",
                   std::string("the source video's camera as assumed by ingest: poses are in "
                               "its space, landmarks project to source pixels"));
   f->SetAttribute("/track", "frames", frames_path);
@@ -55,9 +55,9 @@ void WriteSourceFrames(io::H5File* f, const IngestedFrames& ingested, const std:
 void WriteTrackRecords(io::H5File* f, const std::vector<std::string>& shape_names,
                        const render::Camera& c, float distance_cm) {
   f->WriteStrings("/track/shape_names", shape_names);
-  CameraRecord record = CameraRecord::Of(c);
+  io::CameraRecord record = io::CameraRecord::Of(c);
   record.distance_cm = distance_cm;
-  WriteCamera(f, record);
+  io::WriteCamera(f, record);
 }
 
 int TrackTimeline::Column(const std::string& name) const {

@@ -11,8 +11,8 @@
 #include "io/rig_io.h"
 #include "lipsync/visemes.h"
 #include "render/framing.h"
-#include "stages/camera_file.h"
-#include "stages/frames_file.h"
+#include "io/camera_file.h"
+#include "io/frames_file.h"
 #include "stages/ingested_frames.h"
 #include "stages/lip_track_filter.h"
 #include "stages/track_file.h"
@@ -44,7 +44,7 @@ struct TrackOptions {
   std::string targets = "targets.h5";     // file of segmentation targets
   std::string out = "track.h5";           // output file
   // Frame dataset of target images [N, H, W, 3] u8; when absent, /samples/segmentation.
-  std::string targets_dataset = frames::kSegmentation;
+  std::string targets_dataset = io::frames::kSegmentation;
   // Ingest output whose crops the targets translate (real footage, or a synthetic clip's
   // video): each frame is tracked in its crop's camera (the source camera assumed by ingest,
   // seen through the crop transform), the detected landmarks initialise each segment and
@@ -145,12 +145,12 @@ TargetsInfo InspectTargets(const std::string& path, const std::string& dataset, 
   info.width = static_cast<int>(shape[2]);
   info.camera.width = info.width;
   info.camera.height = info.height;
-  if (!HasCamera(f)) {
+  if (!io::HasCamera(f)) {
     if (!need_camera) return info;
-    throw FileIOError(path + ": no " + kCameraPath + " (name the ingest output with frames when "
+    throw FileIOError(path + ": no " + io::kCameraPath + " (name the ingest output with frames when "
                       "the targets translate its crops)");
   }
-  const CameraRecord camera = ReadCamera(f);
+  const io::CameraRecord camera = io::ReadCamera(f);
   info.camera = camera.ToCamera();
   info.camera.width = info.width;
   info.camera.height = info.height;
@@ -339,7 +339,7 @@ class TrackRun {
       WriteSourceFrames(f, ingested_, o_.frames, frames_);
     } else if (io::H5File::IsHdf5(o_.targets)) {
       io::H5File t = io::H5File::OpenRead(o_.targets);
-      const std::optional<double> fps = HasCamera(t) ? ReadCamera(t).fps : std::nullopt;
+      const std::optional<double> fps = io::HasCamera(t) ? io::ReadCamera(t).fps : std::nullopt;
       if (fps) f->SetAttribute("/track", "fps", *fps);
     }
   }

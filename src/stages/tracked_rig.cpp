@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "io/hdf5.h"
-#include "stages/camera_file.h"
+#include "io/camera_file.h"
 #include "util/errors.h"
 
 namespace facecap::stages {
@@ -45,7 +45,7 @@ TrackedRig::TrackedRig(const std::string& path, const rig::Rig& rig) : num_rig_s
     }
     shape_of_[t] = rig.ShapeIndex(names[t]);
   }
-  const CameraRecord camera = ReadCamera(track);
+  const io::CameraRecord camera = io::ReadCamera(track);
   intrinsics_ = {camera.fx, camera.fy, camera.cx, camera.cy};
   // Pixel quantities beyond 1e9 are not those of an image; the scaled cameras stay finite.
   const auto within = [](double x) { return std::isfinite(x) && std::abs(x) <= 1e9; };

@@ -1,11 +1,11 @@
-#include "stages/camera_file.h"
+#include "io/camera_file.h"
 
 #include <cmath>
 #include <vector>
 
 #include "util/errors.h"
 
-namespace facecap::stages {
+namespace facecap::io {
 
 CameraRecord CameraRecord::Of(const render::Camera& camera) {
   CameraRecord r;
@@ -62,4 +62,4 @@ void WriteCamera(io::H5File* f, const CameraRecord& c) {
   attribute("fps", c.fps);
 }
 
-}  // namespace facecap::stages
+}  // namespace facecap::io

@@ -4,8 +4,8 @@
 // above) and, where the writer knows them, `width` and `height` (pixels of the images it
 // belongs to), `distance_cm` (the subject's framing distance), `fps` (the clip's rate),
 // `fov_deg` and `meaning` (the source camera ingest assumes, in track files of footage).
-#ifndef FACECAP_STAGES_CAMERA_FILE_H_
-#define FACECAP_STAGES_CAMERA_FILE_H_
+#ifndef FACECAP_IO_CAMERA_FILE_H_
+#define FACECAP_IO_CAMERA_FILE_H_
 
 #include <optional>
 #include <string>
@@ -13,7 +13,7 @@
 #include "io/hdf5.h"
 #include "render/camera.h"
 
-namespace facecap::stages {
+namespace facecap::io {
 
 inline constexpr char kCameraPath[] = "/camera/intrinsics";
 
@@ -35,6 +35,6 @@ CameraRecord ReadCamera(const io::H5File& f);
 // The dataset and every attribute the record holds (a new output).
 void WriteCamera(io::H5File* f, const CameraRecord& camera);
 
-}  // namespace facecap::stages
+}  // namespace facecap::io
 
-#endif  // FACECAP_STAGES_CAMERA_FILE_H_
+#endif  // FACECAP_IO_CAMERA_FILE_H_

@@ -1,6 +1,6 @@
 // The camera layout: what a writer records is what a reader gets back, attributes a writer
 // does not know stay absent, and a file without a camera is refused naming the file.
-#include "stages/camera_file.h"
+#include "io/camera_file.h"
 
 #include <string>
 
@@ -9,7 +9,7 @@
 #include "testing/testing.h"
 #include "util/errors.h"
 
-namespace facecap::stages {
+namespace facecap::io {
 namespace {
 
 TEST(CameraFile, WhatIsWrittenIsReadBack) {
@@ -25,11 +25,11 @@ TEST(CameraFile, WhatIsWrittenIsReadBack) {
   written.distance_cm = 62.5;
   written.fps = 25.;
   {
-    io::H5File f = io::H5File::CreateAtomic(dir.File("a.h5"));
+    H5File f = H5File::CreateAtomic(dir.File("a.h5"));
     WriteCamera(&f, written);
     f.Commit();
   }
-  const io::H5File f = io::H5File::OpenRead(dir.File("a.h5"));
+  const H5File f = H5File::OpenRead(dir.File("a.h5"));
   ASSERT_TRUE(HasCamera(f));
   const CameraRecord read = ReadCamera(f);
   EXPECT_EQ(read.fx, 510.25);
@@ -52,11 +52,11 @@ TEST(CameraFile, UnrecordedSizeFollowsThePrincipalPoint) {
   written.cx = 64.;
   written.cy = 48.;
   {
-    io::H5File f = io::H5File::CreateAtomic(dir.File("a.h5"));
+    H5File f = H5File::CreateAtomic(dir.File("a.h5"));
     WriteCamera(&f, written);
     f.Commit();
   }
-  const io::H5File f = io::H5File::OpenRead(dir.File("a.h5"));
+  const H5File f = H5File::OpenRead(dir.File("a.h5"));
   EXPECT_FALSE(f.HasAttribute(kCameraPath, "width"));
   EXPECT_FALSE(f.HasAttribute(kCameraPath, "fps"));
   const CameraRecord read = ReadCamera(f);
@@ -70,11 +70,11 @@ TEST(CameraFile, AFileWithoutACameraIsRefusedByName) {
   testing::TempDir dir;
   const std::string path = dir.File("none.h5");
   {
-    io::H5File f = io::H5File::CreateAtomic(path);
+    H5File f = H5File::CreateAtomic(path);
     f.WriteVector<double>("/other", {1., 2.});
     f.Commit();
   }
-  const io::H5File f = io::H5File::OpenRead(path);
+  const H5File f = H5File::OpenRead(path);
   EXPECT_FALSE(HasCamera(f));
   try {
     ReadCamera(f);
@@ -85,4 +85,4 @@ TEST(CameraFile, AFileWithoutACameraIsRefusedByName) {
 }
 
 }  // namespace
-}  // namespace facecap::stages
+}  // namespace facecap::io

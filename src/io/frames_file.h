@@ -3,10 +3,10 @@
 // a synthetic clip (synth clip, synth crops) and appearance's turntables and tracked views.
 // Each comment says which files hold the dataset, its shape, type and units; the camera the
 // images were taken with is camera_file.h's.
-#ifndef FACECAP_STAGES_FRAMES_FILE_H_
-#define FACECAP_STAGES_FRAMES_FILE_H_
+#ifndef FACECAP_IO_FRAMES_FILE_H_
+#define FACECAP_IO_FRAMES_FILE_H_
 
-namespace facecap::stages::frames {
+namespace facecap::io::frames {
 
 // Images, [N, H, W, 3] uint8 RGB, row-major from the top-left pixel.
 inline constexpr char kImage[] = "/frames/image";                // clip, turntable: the frame
@@ -50,6 +50,6 @@ inline constexpr char kTriangle[] = "/frames/triangle";  // [N, H, W] int32, -1 
 inline constexpr char kDepth[] = "/frames/depth";        // [N, H, W] float cm, 0 none
 inline constexpr char kCamera[] = "/frames/camera";      // [N, 4] float: fx, fy, cx, cy px
 
-}  // namespace facecap::stages::frames
+}  // namespace facecap::io::frames
 
-#endif  // FACECAP_STAGES_FRAMES_FILE_H_
+#endif  // FACECAP_IO_FRAMES_FILE_H_
