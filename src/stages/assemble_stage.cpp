@@ -1,5 +1,7 @@
 // `facecap assemble` (paper 001 Sec. 6): a personalized rig with secondary parts, and
 // `eval assembly`, their checks on the held-out people of a scan database.
+#include "stages/assemble_stage.h"
+
 #include <cstdio>
 #include <iostream>
 #include <set>
@@ -56,46 +58,13 @@ GenericParts MakeGeneric(const rig::Rig& face, int resolution, const std::string
   return g;
 }
 
+}  // namespace
+
 // ---------------------------------------------------------------------------------------------
-// [assemble]
-struct AssembleOptions {
-  std::string rig = "rig.h5";         // personalized rig (blendshapes infer, textures infer)
-  std::string out = "assembled.h5";   // the rig file with /parts
-  int head_resolution = 60;           // demo head resolution of the rig's topology
-  int clearance_shapes = 8;           // lids clear the eyeballs in combinations of this many shapes
-  int iris = -1;                      // procedural iris; -1: matched to the rig's albedo
-  int iris_size = 256;                // iris texture size
-
-  template <class V>
-  void Visit(V&& v) {
-    v("rig", rig, "personalized rig (HDF5 with /rig, e.g. blendshapes infer or textures infer); its /texture and "
-                  "/dynamic_texture are carried over");
-    v("out", out, "assembled rig file: the input's rig, textures and library plus /parts");
-    v("head_resolution", head_resolution, "demo head resolution of the rig's topology (the scan database's "
-                                          "head_resolution), [60, 300]");
-    v("clearance_shapes", clearance_shapes, "an eyeball is set back until the lids clear it in every combination of this "
-                                            "many shapes at weights in [0, 1], [0, 64]; 0: never set back");
-    v("iris", iris, "procedural iris [0, 11]; -1 picks the one nearest the albedo's iris colour (0 without albedo)");
-    v("iris_size", iris_size, "iris texture size in texels, [16, 4096]");
-  }
-  bool Check(std::string* why) const {
-    if (rig.empty() || out.empty()) { *why = "rig and out must name files"; return false; }
-    if (head_resolution < 60 || head_resolution > 300) { *why = "head_resolution must be in [60, 300]"; return false; }
-    if (iris < -1 || iris >= static_cast<int>(assets::IrisColors().size())) {
-      *why = "iris must be -1 or in [0, " + std::to_string(assets::IrisColors().size() - 1) + "]";
-      return false;
-    }
-    if (iris_size < 16 || iris_size > 4096) { *why = "iris_size must be in [16, 4096]"; return false; }
-    if (clearance_shapes < 0 || clearance_shapes > 64) { *why = "clearance_shapes must be in [0, 64]"; return false; }
-    return true;
-  }
-};
-
-void RunAssemble(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<AssembleOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+StageSummary RunAssemble(const AssembleOptions& o, const StageContext& ctx,
+                         const io::Config& resolved) {
+  StageSummary summary{o.out, "files", 0, 0};
+  if (!ctx.comm.IsMainRank()) return summary;
   std::string why;
   if (!o.Check(&why)) throw InvalidInputError("assemble: " + why);
   const rig::Rig face = io::ReadRigFile(o.rig);
@@ -124,43 +93,14 @@ void RunAssemble(const StageFlags& flags, AppState* state) {
           parts.parts.size(), vertices, parts.NumShapes(), 10.f * report.placement_rms_cm, 10.f * mean, 10.f * worst,
           10.f * report.eyeball_setback_cm[0], 10.f * report.eyeball_setback_cm[1],
           parts.iris, o.iris >= 0 ? "" : albedo.empty() ? " (no albedo to match)" : " (matched to the albedo)", o.out);
+  summary.items = 1;
+  summary.computed = 1;
+  return summary;
 }
 
+namespace {
+
 // ---------------------------------------------------------------------------------------------
-// [eval.assembly]
-struct EvalAssemblyOptions {
-  std::string scans = "scans.h5";  // scan database (scans synth): held-out people with truth
-  std::string model = "";          // blendshape model: the predicted rows
-  int head_resolution = 60;
-  int combinations = 1000;         // random weight combinations per person
-  int clearance_shapes = 8;        // assembly: lids clear the eyeballs in combinations of this many shapes
-  int seed = 1;
-  bool json = true;
-  std::string out = "";
-
-  template <class V>
-  void Visit(V&& v) {
-    v("scans", scans, "scan database with truth (scans synth)");
-    v("model", model, "blendshape model (blendshapes train): adds the rows of the parts assembled onto each held-out "
-                      "person's predicted shapes (empty: none)");
-    v("head_resolution", head_resolution, "demo head resolution of the database's topology, [60, 300]");
-    v("combinations", combinations, "random weight combinations per person (8 shapes at weights in [0, 1]), [0, 100000]");
-    v("clearance_shapes", clearance_shapes, "assembly (as assemble): the lids clear the eyeballs in every combination of this "
-                                            "many shapes at weights in [0, 1]; 0: no setback");
-    v("seed", seed, "seed of the combinations");
-    v("json", json, "print one JSON object (false: a readable table)");
-    v("out", out, "also write the JSON object to this file (empty: none)");
-  }
-  bool Check(std::string* why) const {
-    if (scans.empty()) { *why = "scans must name a file"; return false; }
-    if (head_resolution < 60 || head_resolution > 300) { *why = "head_resolution must be in [60, 300]"; return false; }
-    if (combinations < 0 || combinations > 100000) { *why = "combinations must be in [0, 100000]"; return false; }
-    if (seed < 0) { *why = "seed must be >= 0"; return false; }
-    if (clearance_shapes < 0 || clearance_shapes > 64) { *why = "clearance_shapes must be in [0, 64]"; return false; }
-    return true;
-  }
-};
-
 struct CheckSums {
   double root_mean = 0, root_max = 0, penetration_max = 0, teeth_mean = 0, teeth_max = 0;
   double true_teeth_mean = 0, true_teeth_max = 0, setback_mean = 0, setback_max = 0;
@@ -197,11 +137,12 @@ struct CheckSums {
   }
 };
 
-void RunEvalAssembly(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<EvalAssemblyOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+}  // namespace
+
+StageSummary RunEvalAssembly(const EvalAssemblyOptions& o, const StageContext& ctx,
+                             const io::Config& /*resolved*/) {
+  StageSummary summary{o.out, "files", 0, 0};
+  if (!ctx.comm.IsMainRank()) return summary;
   std::string why;
   if (!o.Check(&why)) throw InvalidInputError("eval assembly: " + why);
   const io::H5File f = io::H5File::OpenRead(o.scans);
@@ -322,9 +263,10 @@ void RunEvalAssembly(const StageFlags& flags, AppState* state) {
     }
   }
   if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
+  summary.items = 1;
+  summary.computed = 1;
+  return summary;
 }
-
-}  // namespace
 
 void RegisterAssemble(CLI::App* app, AppState* state) {
   AddStage<AssembleOptions>(
@@ -333,13 +275,14 @@ void RegisterAssemble(CLI::App* app, AppState* state) {
       "albedo and a cornea, lacrimal fluid, eyelashes, teeth, gums and tongue, placed on the person's face and "
       "driven by each of their shapes (a linear fit of the template's shapes; the jaw's parts follow the jaw); "
       "writes the rig file with /parts, which rig export and export gltf add as separate meshes",
-      PathKeys{{"rig"}, {{"out", OutputKind::kHdf5}}}, RunAssemble);
+      PathKeys{{"rig"}, {{"out", OutputKind::kHdf5}}}, StageCommand(RunAssemble));
   AddStage<EvalAssemblyOptions>(
       EvalSubcommand(app), state, "assembly", "eval.assembly", "eval assembly",
       "Secondary parts on the held-out people of a scan database, over every shape and random weight "
       "combinations: eyelash roots to the lid surface, eyelid vertices inside the eyeballs, lower teeth "
       "against the jaw's rotation; beside the generic parts and the coefficient fit alone",
-      PathKeys{{"scans", "model"}, {{"out", OutputKind::kText}}}, RunEvalAssembly);
+      PathKeys{{"scans", "model"}, {{"out", OutputKind::kText}}},
+      StageCommand(RunEvalAssembly));
 }
 
 }  // namespace facecap::stages

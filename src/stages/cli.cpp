@@ -109,14 +109,4 @@ std::string JoinCommandLine(int argc, char** argv) {
   return line;
 }
 
-io::Provenance MakeProvenance(const StageContext& ctx, const std::string& stage,
-                              const io::Config& resolved) {
-  io::Provenance p;
-  p.stage = stage;
-  p.command_line = ctx.command_line;
-  p.config = resolved.ToToml();
-  p.mpi_ranks = ctx.comm.size();
-  return p;
-}
-
 }  // namespace facecap::stages

@@ -7,6 +7,8 @@
 #include <fstream>
 #include <unordered_set>
 
+#include "stages/curate_stage.h"
+
 #include "curate/cluster_tree.h"
 #include "curate/features.h"
 #include "face/align.h"
@@ -26,103 +28,6 @@ namespace {
 
 using curate::FeatureKind;
 using curate::FeatureMatrix;
-
-// [curate.build]
-struct CurateBuildOptions {
-  std::string frames = "frames.h5";      // ingest output
-  std::string out = "curation.h5";       // output file
-  std::vector<std::string> levels = {"pose", "lighting", "expression"};  // f_1 ... f_n
-  std::vector<int> clusters = {9, 3};    // k_1 ... k_{n-1}
-  int seed = 1;                          // k-means++ seed
-  int max_iterations = 50;               // Lloyd iterations at most
-  int threads = 0;                       // OpenMP threads for the features (0: all)
-
-  template <class V>
-  void Visit(V&& v) {
-    v("frames", frames, "ingest output (frames.h5) whose faces are clustered");
-    v("out", out, "output file (HDF5) with the features and the cluster tree");
-    v("levels", levels, "features of the tree's levels, top first: pose, lighting, expression "
-                        "(the last level is flat)");
-    v("clusters", clusters, "k-means clusters per node for every level but the last");
-    v("seed", seed, "seed of the k-means++ initialisation");
-    v("max_iterations", max_iterations, "k-means (Lloyd) iterations at most");
-    v("threads", threads, "OpenMP threads for the features (0: all available)");
-  }
-  bool Check(std::string* why) const {
-    if (frames.empty() || out.empty()) { *why = "frames and out must name files"; return false; }
-    try {
-      for (const auto& l : levels) curate::ParseFeatureKind(l);
-    } catch (const InvalidInputError& e) {
-      *why = std::string("levels: ") + e.what();
-      return false;
-    }
-    if (seed < 0) { *why = "seed must be >= 0"; return false; }
-    if (threads < 0) { *why = "threads must be >= 0"; return false; }
-    curate::ClusterTreeOptions t{clusters, static_cast<uint64_t>(seed), max_iterations};
-    return t.Check(static_cast<int>(levels.size()), why);
-  }
-};
-
-// [curate.query]
-struct CurateQueryOptions {
-  std::string curation = "curation.h5";  // output of curate build
-  std::string frames;                    // its ingest output ("": the one it was built from)
-  int64_t frame = -1;                    // query by this frame of the ingest output
-  std::string image;                     // or by a face in this image
-  std::string renders;                   // or by every image in this folder (turntable)
-  std::string query_frames;              // or by every face of another ingest output
-  std::vector<int> picks = {2, 3, 1};    // q_1 ... q_n
-  int64_t unique_frames = 0;             // widen the picks until this many unique frames (0: off)
-  std::string out = "picks.h5";          // output: the picked frames
-  bool contact_sheet = true;             // write the contact sheet
-  std::string sheet;                     // its PNG ("": beside out, out's name with .png)
-  std::string landmark_model = face::kDefaultLandmarkModel;  // for image and renders queries
-  int sheet_rows = 48;                   // queries shown on the sheet at most
-  int sheet_columns = 12;                // picks shown per query at most
-
-  template <class V>
-  void Visit(V&& v) {
-    v("curation", curation, "curation file from `facecap curate build`");
-    v("frames", frames, "its ingest output (default: the file the tree was built from)");
-    v("frame", frame, "query with this frame (row) of the ingest output");
-    v("image", image, "query with the face in this image");
-    v("renders", renders, "query with every image of this folder, e.g. synthetic turntable "
-                          "renders; returns the unique frames");
-    v("query_frames", query_frames, "query with every face of another ingest output");
-    v("picks", picks, "q_1 ... q_n: nodes kept per level and frames per leaf (paper: 2, 3, 1)");
-    v("unique_frames", unique_frames,
-      "target count of unique frames over all queries (e.g. 250 for a turntable, paper 000 "
-      "Sec. 5.2): the picks are widened from the bottom level up (frames per leaf, then "
-      "lighting, then pose) until exactly this many are unique, or every frame is taken "
-      "(0: the picks as given)");
-    v("out", out, "output file (HDF5) with the picked frames");
-    v("contact_sheet", contact_sheet, "write the contact sheet (--no-contact-sheet: none)");
-    v("sheet", sheet, "contact sheet PNG, each query's crop beside its picks (default: beside "
-                      "out, with out's name and .png)");
-    v("landmark_model", landmark_model, "dlib 68-point model for image and renders queries");
-    v("sheet_rows", sheet_rows, "queries shown on the contact sheet at most");
-    v("sheet_columns", sheet_columns, "picks shown beside each query on the contact sheet at most");
-  }
-  bool Check(std::string* why) const {
-    const int given = (frame >= 0) + !image.empty() + !renders.empty() + !query_frames.empty();
-    if (given != 1) {
-      *why = "give exactly one query: frame, image, renders or query_frames";
-      return false;
-    }
-    for (int q : picks) if (q < 1) { *why = "each pick count must be >= 1"; return false; }
-    if (out.empty()) { *why = "out must name a file"; return false; }
-    if (sheet_rows < 1) { *why = "sheet_rows must be >= 1"; return false; }
-    if (sheet_columns < 1) { *why = "sheet_columns must be >= 1"; return false; }
-    if (unique_frames < 0) { *why = "unique_frames must be >= 0"; return false; }
-    if (contact_sheet && SheetPath() == out) { *why = "sheet must differ from out"; return false; }
-    return true;
-  }
-  // The contact sheet's path: `sheet`, or out with .png.
-  std::string SheetPath() const {
-    if (!sheet.empty()) return sheet;
-    return std::filesystem::path(out).replace_extension(".png").string();
-  }
-};
 
 // Found frames of an ingest output: their rows, crops and crop landmarks, read in blocks.
 struct FoundFrames {
@@ -155,85 +60,6 @@ std::vector<Eigen::VectorXf> QueryFeatures(const curate::FeatureTable& t, int ro
   std::vector<Eigen::VectorXf> q;
   for (FeatureKind k : kinds) q.push_back(t.Of(k).row(row).transpose());
   return q;
-}
-
-void RunCurateBuild(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<CurateBuildOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;  // about a second of work for 10,000 frames: rank 0 alone
-  const auto t0 = std::chrono::steady_clock::now();
-  const io::H5File in = io::H5File::OpenRead(o.frames);
-  const int size = CropSize(in);
-  const std::vector<int64_t> rows = FoundRows(in);
-  if (rows.empty()) {
-    throw FileIOError(o.frames + ": no frame with a face to curate (see /frames/status)");
-  }
-  // Features in blocks, so that crops of long clips never sit in memory at once.
-  const int64_t n = static_cast<int64_t>(rows.size());
-  curate::FeatureTable table;
-  table.pose.resize(n, curate::kPoseDims);
-  table.lighting.resize(n, curate::kLightingDims);
-  table.expression.resize(n, curate::kExpressionDims);
-  constexpr int64_t kBlock = 512;
-  for (int64_t begin = 0; begin < n; begin += kBlock) {
-    const int64_t count = std::min(kBlock, n - begin);
-    std::vector<Image8> crops(count);
-    std::vector<face::Landmarks> landmarks(count);
-    std::vector<const Image8*> crop_ptrs(count);
-    // One read of the rows' span (chunks decompress once), then the found rows from it.
-    const int64_t first = rows[begin], span = rows[begin + count - 1] - first + 1;
-    const int64_t crop_bytes = static_cast<int64_t>(size) * size * 3;
-    std::vector<uint8_t> span_crops(span * crop_bytes);
-    std::vector<float> span_landmarks(span * face::kNumLandmarks * 2);
-    in.ReadFrames<uint8_t>(io::frames::kCrop, first, span, span_crops.data());
-    in.ReadFrames<float>(io::frames::kLandmarksCrop, first, span, span_landmarks.data());
-    for (int64_t j = 0; j < count; ++j) {
-      const int64_t k = rows[begin + j] - first;
-      crops[j] = Image8(size, size, 3);
-      std::copy_n(span_crops.begin() + k * crop_bytes, crop_bytes, crops[j].data.begin());
-      std::copy_n(span_landmarks.begin() + k * face::kNumLandmarks * 2, face::kNumLandmarks * 2,
-                  landmarks[j].data());
-      crop_ptrs[j] = &crops[j];
-    }
-    const curate::FeatureTable block = curate::ComputeFeatures(crop_ptrs, landmarks, o.threads);
-    table.pose.middleRows(begin, count) = block.pose;
-    table.lighting.middleRows(begin, count) = block.lighting;
-    table.expression.middleRows(begin, count) = block.expression;
-  }
-  const auto t1 = std::chrono::steady_clock::now();
-  std::vector<FeatureMatrix> levels;
-  for (const std::string& name : o.levels) levels.push_back(table.Of(curate::ParseFeatureKind(name)));
-  const curate::ClusterTreeOptions tree_options{o.clusters, static_cast<uint64_t>(o.seed), o.max_iterations};
-  const curate::ClusterTree tree = curate::ClusterTree::Build(levels, tree_options);
-  const auto t2 = std::chrono::steady_clock::now();
-
-  io::H5File f = io::H5File::CreateAtomic(o.out);
-  f.WriteProvenance(MakeProvenance(ctx, "curate build", resolved));
-  f.SetAttribute("/", "frames_file", std::filesystem::absolute(o.frames).string());
-  f.WriteVector("/features/frame", rows);
-  f.SetAttribute("/features/frame", "meaning", std::string("row of the ingest output's /frames"));
-  f.WriteMatrix("/features/pose", table.pose);
-  f.SetAttribute("/features/pose", "columns", std::string("pitch, yaw (degrees; pitch > 0 face down, yaw > 0 face to its left, as rig::RigidPose)"));
-  f.WriteMatrix("/features/lighting", table.lighting);
-  f.SetAttribute("/features/lighting", "layout", std::string("4 rows x 3 columns x RGB of the nose crop, [0, 1]"));
-  f.WriteMatrix("/features/expression", table.expression);
-  f.SetAttribute("/features/expression", "layout", std::string("aligned minus template (x, y) of 17-21+36-41, 22-26+42-47, 48-67"));
-  f.WriteStrings("/tree/levels", o.levels);
-  for (size_t l = 0; l < tree.levels().size(); ++l) {
-    const curate::ClusterLevel& L = tree.levels()[l];
-    const std::string g = "/tree/level_" + std::to_string(l);
-    f.WriteMatrix(g + "/centers", L.centers);
-    f.WriteVector(g + "/parent", L.parent);
-    f.WriteVector(g + "/first_child", L.first_child);
-  }
-  f.WriteVector("/tree/leaf_items", tree.leaf_items());
-  f.SetAttribute("/tree/leaf_items", "meaning", std::string("rows of /features grouped by node of the last clustered level"));
-  f.Commit();
-  FC_INFO("curate build: {} frames with a face of {}: features {:.3f} s, tree {:.3f} s ({} levels, "
-          "{} leaf nodes) -> {}", n, o.frames, std::chrono::duration<double>(t1 - t0).count(),
-          std::chrono::duration<double>(t2 - t1).count(), tree.NumLevels(),
-          tree.levels().empty() ? 1 : tree.levels().back().centers.rows(), o.out);
 }
 
 struct Curation {
@@ -444,11 +270,94 @@ void WriteQuerySheet(const CurateQueryOptions& o, const io::H5File& frames, int 
   FC_INFO("curate query: contact sheet (query | picks, one row per query) -> {}", o.SheetPath());
 }
 
-void RunCurateQuery(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<CurateQueryOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+}  // namespace
+
+StageSummary RunCurateBuild(const CurateBuildOptions& o, const StageContext& ctx,
+                            const io::Config& resolved) {
+  StageSummary summary{o.out, "frames", 0, 0};
+  // About a second of work for 10,000 frames: rank 0 alone.
+  if (!ctx.comm.IsMainRank()) return summary;
+  const auto t0 = std::chrono::steady_clock::now();
+  const io::H5File in = io::H5File::OpenRead(o.frames);
+  const int size = CropSize(in);
+  const std::vector<int64_t> rows = FoundRows(in);
+  if (rows.empty()) {
+    throw FileIOError(o.frames + ": no frame with a face to curate (see /frames/status)");
+  }
+  // Features in blocks, so that crops of long clips never sit in memory at once.
+  const int64_t n = static_cast<int64_t>(rows.size());
+  curate::FeatureTable table;
+  table.pose.resize(n, curate::kPoseDims);
+  table.lighting.resize(n, curate::kLightingDims);
+  table.expression.resize(n, curate::kExpressionDims);
+  constexpr int64_t kBlock = 512;
+  for (int64_t begin = 0; begin < n; begin += kBlock) {
+    const int64_t count = std::min(kBlock, n - begin);
+    std::vector<Image8> crops(count);
+    std::vector<face::Landmarks> landmarks(count);
+    std::vector<const Image8*> crop_ptrs(count);
+    // One read of the rows' span (chunks decompress once), then the found rows from it.
+    const int64_t first = rows[begin], span = rows[begin + count - 1] - first + 1;
+    const int64_t crop_bytes = static_cast<int64_t>(size) * size * 3;
+    std::vector<uint8_t> span_crops(span * crop_bytes);
+    std::vector<float> span_landmarks(span * face::kNumLandmarks * 2);
+    in.ReadFrames<uint8_t>(io::frames::kCrop, first, span, span_crops.data());
+    in.ReadFrames<float>(io::frames::kLandmarksCrop, first, span, span_landmarks.data());
+    for (int64_t j = 0; j < count; ++j) {
+      const int64_t k = rows[begin + j] - first;
+      crops[j] = Image8(size, size, 3);
+      std::copy_n(span_crops.begin() + k * crop_bytes, crop_bytes, crops[j].data.begin());
+      std::copy_n(span_landmarks.begin() + k * face::kNumLandmarks * 2, face::kNumLandmarks * 2,
+                  landmarks[j].data());
+      crop_ptrs[j] = &crops[j];
+    }
+    const curate::FeatureTable block = curate::ComputeFeatures(crop_ptrs, landmarks, o.threads);
+    table.pose.middleRows(begin, count) = block.pose;
+    table.lighting.middleRows(begin, count) = block.lighting;
+    table.expression.middleRows(begin, count) = block.expression;
+  }
+  const auto t1 = std::chrono::steady_clock::now();
+  std::vector<FeatureMatrix> levels;
+  for (const std::string& name : o.levels) levels.push_back(table.Of(curate::ParseFeatureKind(name)));
+  const curate::ClusterTreeOptions tree_options{o.clusters, static_cast<uint64_t>(o.seed), o.max_iterations};
+  const curate::ClusterTree tree = curate::ClusterTree::Build(levels, tree_options);
+  const auto t2 = std::chrono::steady_clock::now();
+
+  io::H5File f = io::H5File::CreateAtomic(o.out);
+  f.WriteProvenance(MakeProvenance(ctx, "curate build", resolved));
+  f.SetAttribute("/", "frames_file", std::filesystem::absolute(o.frames).string());
+  f.WriteVector("/features/frame", rows);
+  f.SetAttribute("/features/frame", "meaning", std::string("row of the ingest output's /frames"));
+  f.WriteMatrix("/features/pose", table.pose);
+  f.SetAttribute("/features/pose", "columns", std::string("pitch, yaw (degrees; pitch > 0 face down, yaw > 0 face to its left, as rig::RigidPose)"));
+  f.WriteMatrix("/features/lighting", table.lighting);
+  f.SetAttribute("/features/lighting", "layout", std::string("4 rows x 3 columns x RGB of the nose crop, [0, 1]"));
+  f.WriteMatrix("/features/expression", table.expression);
+  f.SetAttribute("/features/expression", "layout", std::string("aligned minus template (x, y) of 17-21+36-41, 22-26+42-47, 48-67"));
+  f.WriteStrings("/tree/levels", o.levels);
+  for (size_t l = 0; l < tree.levels().size(); ++l) {
+    const curate::ClusterLevel& L = tree.levels()[l];
+    const std::string g = "/tree/level_" + std::to_string(l);
+    f.WriteMatrix(g + "/centers", L.centers);
+    f.WriteVector(g + "/parent", L.parent);
+    f.WriteVector(g + "/first_child", L.first_child);
+  }
+  f.WriteVector("/tree/leaf_items", tree.leaf_items());
+  f.SetAttribute("/tree/leaf_items", "meaning", std::string("rows of /features grouped by node of the last clustered level"));
+  f.Commit();
+  FC_INFO("curate build: {} frames with a face of {}: features {:.3f} s, tree {:.3f} s ({} levels, "
+          "{} leaf nodes) -> {}", n, o.frames, std::chrono::duration<double>(t1 - t0).count(),
+          std::chrono::duration<double>(t2 - t1).count(), tree.NumLevels(),
+          tree.levels().empty() ? 1 : tree.levels().back().centers.rows(), o.out);
+  summary.items = n;
+  summary.computed = n;
+  return summary;
+}
+
+StageSummary RunCurateQuery(const CurateQueryOptions& o, const StageContext& ctx,
+                            const io::Config& resolved) {
+  StageSummary summary{o.out, "frames", 0, 0};
+  if (!ctx.comm.IsMainRank()) return summary;
   const Curation c = ReadCuration(o.curation);
   if (static_cast<int>(o.picks.size()) != c.tree.NumLevels()) {
     throw InvalidInputError("[curate.query] picks needs " + std::to_string(c.tree.NumLevels()) +
@@ -477,9 +386,10 @@ void RunCurateQuery(const StageFlags& flags, AppState* state) {
   FC_INFO("curate query: {} quer{} -> {} unique frames ({:.3f} ms per query in the tree) -> {}",
           queries.size(), queries.size() == 1 ? "y" : "ies", picks.unique.size(),
           1000.0 * picks.query_s / queries.size(), o.out);
+  summary.items = static_cast<int64_t>(picks.unique.size());
+  summary.computed = summary.items;
+  return summary;
 }
-
-}  // namespace
 
 void RegisterCurate(CLI::App* app, AppState* state) {
   CLI::App* curate = app->add_subcommand("curate", "Curate frames: features and the hierarchical "
@@ -491,13 +401,13 @@ void RegisterCurate(CLI::App* app, AppState* state) {
       "of k-means levels over them (default: 9 pose clusters, 3 lighting clusters each, flat "
       "expression)",
       PathKeys{{"frames"}, {{"out", OutputKind::kHdf5}}},
-      RunCurateBuild);
+      StageCommand(RunCurateBuild));
   AddStage<CurateQueryOptions>(
       curate, state, "query", "curate.query", "curate query",
       "Frames that match a query (a frame, an image, a folder of renders, or another ingest "
       "output) with q_1..q_n picks per level; writes their indices and a contact sheet",
       PathKeys{{"curation", "frames", "image", "renders", "query_frames", "landmark_model"}, {{"out", OutputKind::kHdf5}, {"sheet", OutputKind::kImage}}},
-      RunCurateQuery);
+      StageCommand(RunCurateQuery));
 }
 
 }  // namespace facecap::stages

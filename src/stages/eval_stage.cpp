@@ -13,6 +13,8 @@
 #include <map>
 #include <sstream>
 
+#include "stages/eval_stage.h"
+
 #include <Eigen/Geometry>
 
 #include "appearance/photon_gather.h"
@@ -42,40 +44,6 @@
 
 namespace facecap::stages {
 namespace {
-
-// [eval.track]
-struct EvalTrackOptions {
-  std::string truth = "clip.h5";   // file with the true pose and weights of every frame
-  std::string track = "track.h5";  // output of facecap track
-  // The rig that was tracked; empty: the truth's rig (a track made with the true rig).
-  std::string rig = "";
-  // Rig of the truth (HDF5 /rig); empty: the truth file's /rig.
-  std::string truth_rig = "";
-  bool json = true;                // print the metrics as one JSON object (else a table)
-  std::string out = "";            // also write the JSON to this file (empty: none)
-  bool per_frame = false;          // add each scored frame's errors to the JSON object
-
-  template <class V>
-  void Visit(V&& v) {
-    v("truth", truth, "file with the true pose and weights per frame (synth samples or clip)");
-    v("track", track, "track.h5 written by facecap track");
-    v("rig", rig, "the rig that was tracked (empty: the truth's own rig)");
-    v("truth_rig", truth_rig,
-      "rig file of the truth (empty: the truth file's /rig, else the rig that was tracked)");
-    v("json", json, "print one JSON object (false: a readable table)");
-    v("out", out, "also write the JSON object to this file (empty: none)");
-    v("per_frame", per_frame,
-      "add \"per_frame\" to the JSON object: each scored frame's index, pose error (deg), "
-      "weight MAE and landmark NME, to find the frames that fail");
-  }
-  bool Check(std::string* why) const {
-    if (truth.empty() || track.empty()) {
-      *why = "truth and track are required";
-      return false;
-    }
-    return true;
-  }
-};
 
 // A truth weight above this counts as active (the weight MAE over active weights).
 using track::kActiveWeight;
@@ -243,11 +211,66 @@ void PrintTrackTable(const TrackScores& sc, const TrackSummary& m, int64_t frame
               err.vertex / n, m.sec / n);
 }
 
-void RunEvalTrack(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<EvalTrackOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+// One capture scored against the truth: the face-region comparison and the eye and mouth
+// corners' alignment.
+struct AppearanceScore {
+  int size = 0;
+  appearance::TextureComparison comparison;
+  appearance::CornerAlignment corners;
+};
+
+// A capture against the truth resampled to its resolution (bilinear, as a renderer samples).
+// Corner windows of N / 16 texels each side (an eye's width), searched N / 32 texels far (16
+// and 8 at 256; at least 1).
+AppearanceScore ScoreCapture(const std::string& path, const rig::Rig& truth_rig, const ImageF& truth) {
+  const ImageF captured = io::ReadColorTexture(path, io::kTextureAlbedoPath);
+  const int N = captured.width;
+  ImageF confidence(N, N, 1);
+  confidence.data = io::H5File::OpenRead(path).Read<float>(io::kTextureConfidencePath, {N, N});
+  const ImageF truth_resampled = render::ResampleBilinear(truth, N, N);
+  const render::TexelMap texels = render::BakeTexelMap(truth_rig, N);
+  AppearanceScore score;
+  score.size = N;
+  score.comparison = appearance::CompareTextures(captured, confidence, truth_resampled,
+                                                 appearance::FaceRegionMask(truth_rig, texels));
+  const int window = std::max(1, N / 16), search = std::max(1, N / 32);
+  if (2 * (window + search) + 1 > N) {
+    throw FileIOError(path + ": a texture of " + std::to_string(N) + " texels is too small to "
+                      "measure the corners' alignment");
+  }
+  score.corners = appearance::MeasureCornerAlignment(
+      captured, truth_resampled,
+      appearance::LandmarkUVs(truth_rig, appearance::CornerLandmarks()), window, search);
+  return score;
+}
+
+// Per pixel of U(I): 1 where its texture point lies in the face region and the pixel is at
+// least `margin` pixels inside the silhouette.
+ImageF FacePixels(const ImageF& uv, const std::vector<uint8_t>& face, int texels, int margin) {
+  ImageF mask;
+  appearance::SilhouetteInterior(uv, margin, &mask);
+  for (int y = 0; y < uv.height; ++y) {
+    for (int x = 0; x < uv.width; ++x) {
+      const int tx = std::clamp(static_cast<int>(uv.at(x, y, 0) * texels), 0, texels - 1);
+      const int ty = std::clamp(static_cast<int>((1.f - uv.at(x, y, 1)) * texels), 0, texels - 1);
+      if (!face[static_cast<size_t>(ty) * texels + tx]) mask.at(x, y) = 0.f;
+    }
+  }
+  return mask;
+}
+
+// The summary of an eval stage on rank 0: the JSON file `out`, counted when it was written
+// (out empty: the JSON was only printed).
+StageSummary EvalJsonSummary(const std::string& out) {
+  const int64_t files = out.empty() ? 0 : 1;
+  return StageSummary{out, "files", files, files};
+}
+
+}  // namespace
+
+StageSummary RunEvalTrack(const EvalTrackOptions& o, const StageContext& ctx,
+                          const io::Config& /*resolved*/) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "files", 0, 0};
   std::string why;
   if (!o.Check(&why)) throw InvalidInputError("eval track: " + why);
 
@@ -295,38 +318,12 @@ void RunEvalTrack(const StageFlags& flags, AppState* state) {
     PrintTrackTable(scorer.scores(), summary, frames);
   }
   if (!o.out.empty()) io::WriteFileAtomically(o.out, js + "\n");
+  return EvalJsonSummary(o.out);
 }
 
-// [eval.landmarks]
-struct EvalLandmarksOptions {
-  std::string frames = "frames.h5";  // ingest output: detected landmarks, crops, camera
-  std::string track = "track.h5";    // tracking of the frames' translations
-  std::string rig = "rig.h5";        // the rig that was tracked
-  int holdout_every = 0;             // frames i % n == n - 1 were held out of training
-  bool json = true;                  // print one JSON object (else a table)
-  std::string out = "";              // also write the JSON to this file
-
-  template <class V>
-  void Visit(V&& v) {
-    v("frames", frames, "ingest output (frames.h5): dlib's landmarks in source pixels");
-    v("track", track, "track.h5 of the frames' crops (track --frames: in the source camera)");
-    v("rig", rig, "the rig that was tracked (HDF5)");
-    v("holdout_every", holdout_every,
-      "frames i % n == n - 1 were held out of deepfake training: reported apart (0: none)");
-    v("json", json, "print one JSON object (false: a readable table)");
-    v("out", out, "also write the JSON object to this file (empty: none)");
-  }
-  bool Check(std::string* why) const {
-    if (holdout_every < 0 || holdout_every == 1) { *why = "holdout_every must be 0 or >= 2"; return false; }
-    return true;
-  }
-};
-
-void RunEvalLandmarks(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<EvalLandmarksOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+StageSummary RunEvalLandmarks(const EvalLandmarksOptions& o, const StageContext& ctx,
+                              const io::Config& /*resolved*/) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "files", 0, 0};
   const rig::Rig rig = io::ReadRigFile(o.rig);
   if (rig.landmarks.size() != 68) throw FileIOError(o.rig + ": the rig has no 68 landmarks");
   const IngestedFrames frames = IngestedFrames::Read(o.frames);
@@ -386,34 +383,12 @@ void RunEvalLandmarks(const StageFlags& flags, AppState* state) {
                 count[2], mean(2).c_str());
   }
   if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
+  return EvalJsonSummary(o.out);
 }
 
-// [eval.person]
-struct EvalPersonOptions {
-  std::string truth = "clip.h5";     // a synthetic clip: its /rig is the true person
-  std::string person = "person.h5";  // person fit output
-  bool json = true;                  // print one JSON object (else a table)
-  std::string out = "";              // also write the JSON to this file
-
-  template <class V>
-  void Visit(V&& v) {
-    v("truth", truth, "file whose /rig is the true person (synth clip)");
-    v("person", person, "person fit output (HDF5): the estimated rig, the landmarks-only "
-                        "neutral and the generic neutral it started from");
-    v("json", json, "print one JSON object (false: a readable table)");
-    v("out", out, "also write the JSON object to this file (empty: none)");
-  }
-  bool Check(std::string* why) const {
-    if (truth.empty() || person.empty()) { *why = "truth and person are required"; return false; }
-    return true;
-  }
-};
-
-void RunEvalPerson(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<EvalPersonOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+StageSummary RunEvalPerson(const EvalPersonOptions& o, const StageContext& ctx,
+                           const io::Config& /*resolved*/) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "files", 0, 0};
   std::string why;
   if (!o.Check(&why)) throw InvalidInputError("eval person: " + why);
   const rig::Rig truth = io::ReadRigFile(o.truth);
@@ -453,69 +428,12 @@ void RunEvalPerson(const StageFlags& flags, AppState* state) {
                 rms_template / iod, 10. * rms_template);
   }
   if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
+  return EvalJsonSummary(o.out);
 }
 
-// [eval.appearance]
-struct EvalAppearanceOptions {
-  std::string truth = "clip.h5";      // a synthetic clip: its /identity/albedo and /rig
-  std::string texture = "texture.h5"; // appearance gather output
-  std::string naive = "";             // the naive capture of the same views ("": none)
-  bool json = true;                   // print one JSON object (else a table)
-  std::string out = "";               // also write the JSON to this file
-
-  template <class V>
-  void Visit(V&& v) {
-    v("truth", truth, "synthetic clip whose /identity/albedo is the true albedo and /rig the person");
-    v("texture", texture, "captured texture (appearance gather output)");
-    v("naive", naive, "the naive capture (appearance gather of appearance frames: the footage's "
-                      "own pixels splatted through the tracked rig), scored beside it (\"\": none)");
-    v("json", json, "print one JSON object (false: a readable table)");
-    v("out", out, "also write the JSON object to this file (empty: none)");
-  }
-  bool Check(std::string* why) const {
-    if (truth.empty() || texture.empty()) { *why = "truth and texture are required"; return false; }
-    return true;
-  }
-};
-
-// One capture scored against the truth: the face-region comparison and the eye and mouth
-// corners' alignment.
-struct AppearanceScore {
-  int size = 0;
-  appearance::TextureComparison comparison;
-  appearance::CornerAlignment corners;
-};
-
-// A capture against the truth resampled to its resolution (bilinear, as a renderer samples).
-// Corner windows of N / 16 texels each side (an eye's width), searched N / 32 texels far (16
-// and 8 at 256; at least 1).
-AppearanceScore ScoreCapture(const std::string& path, const rig::Rig& truth_rig, const ImageF& truth) {
-  const ImageF captured = io::ReadColorTexture(path, io::kTextureAlbedoPath);
-  const int N = captured.width;
-  ImageF confidence(N, N, 1);
-  confidence.data = io::H5File::OpenRead(path).Read<float>(io::kTextureConfidencePath, {N, N});
-  const ImageF truth_resampled = render::ResampleBilinear(truth, N, N);
-  const render::TexelMap texels = render::BakeTexelMap(truth_rig, N);
-  AppearanceScore score;
-  score.size = N;
-  score.comparison = appearance::CompareTextures(captured, confidence, truth_resampled,
-                                                 appearance::FaceRegionMask(truth_rig, texels));
-  const int window = std::max(1, N / 16), search = std::max(1, N / 32);
-  if (2 * (window + search) + 1 > N) {
-    throw FileIOError(path + ": a texture of " + std::to_string(N) + " texels is too small to "
-                      "measure the corners' alignment");
-  }
-  score.corners = appearance::MeasureCornerAlignment(
-      captured, truth_resampled,
-      appearance::LandmarkUVs(truth_rig, appearance::CornerLandmarks()), window, search);
-  return score;
-}
-
-void RunEvalAppearance(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<EvalAppearanceOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+StageSummary RunEvalAppearance(const EvalAppearanceOptions& o, const StageContext& ctx,
+                               const io::Config& /*resolved*/) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "files", 0, 0};
   const rig::Rig truth_rig = io::ReadRigFile(o.truth);
   const ImageF truth = io::ReadColorTexture(o.truth, io::kTrueAlbedoPath);
   const AppearanceScore score = ScoreCapture(o.texture, truth_rig, truth);
@@ -562,66 +480,12 @@ void RunEvalAppearance(const StageFlags& flags, AppState* state) {
                 static_cast<double>(std::max(1, score.size / 32)));
   }
   if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
+  return EvalJsonSummary(o.out);
 }
 
-// [eval.rerender]
-struct EvalRerenderOptions {
-  std::string views = "frame_views.h5";  // appearance frames output: the tracked footage as views
-  std::string texture = "person_textured.h5";  // the captured texture (appearance gather)
-  std::string naive = "";                // the naive capture, scored beside it ("": none)
-  int holdout_every = 5;                 // frames i % n == n - 1 are scored (0: every frame)
-  int edge_margin_px = 2;                // pixels this close to the silhouette are not scored
-  bool json = true;                      // print one JSON object (else a table)
-  std::string out = "";                  // also write the JSON to this file
-
-  template <class V>
-  void Visit(V&& v) {
-    v("views", views, "appearance frames output: each frame's crop with the tracked rig's U(I)");
-    v("texture", texture, "captured texture (appearance gather output)");
-    v("naive", naive, "the naive capture (gathered from the same views' frames without the "
-                      "held-out ones), scored beside it (\"\": none)");
-    v("holdout_every", holdout_every,
-      "score frames i % n == n - 1, those deepfake train's b_holdout_every kept out of training "
-      "(0: every frame)");
-    v("edge_margin_px", edge_margin_px, "pixels within this distance of the head's silhouette "
-                                        "are not scored");
-    v("json", json, "print one JSON object (false: a readable table)");
-    v("out", out, "also write the JSON object to this file (empty: none)");
-  }
-  bool Check(std::string* why) const {
-    if (views.empty() || texture.empty()) { *why = "views and texture are required"; return false; }
-    if (holdout_every < 0 || holdout_every == 1) {
-      *why = "holdout_every must be 0 (every frame) or at least 2";
-      return false;
-    }
-    if (edge_margin_px < 0 || edge_margin_px > 32) {
-      *why = "edge_margin_px must be in [0, 32]";
-      return false;
-    }
-    return true;
-  }
-};
-
-// Per pixel of U(I): 1 where its texture point lies in the face region and the pixel is at
-// least `margin` pixels inside the silhouette.
-ImageF FacePixels(const ImageF& uv, const std::vector<uint8_t>& face, int texels, int margin) {
-  ImageF mask;
-  appearance::SilhouetteInterior(uv, margin, &mask);
-  for (int y = 0; y < uv.height; ++y) {
-    for (int x = 0; x < uv.width; ++x) {
-      const int tx = std::clamp(static_cast<int>(uv.at(x, y, 0) * texels), 0, texels - 1);
-      const int ty = std::clamp(static_cast<int>((1.f - uv.at(x, y, 1)) * texels), 0, texels - 1);
-      if (!face[static_cast<size_t>(ty) * texels + tx]) mask.at(x, y) = 0.f;
-    }
-  }
-  return mask;
-}
-
-void RunEvalRerender(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<EvalRerenderOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+StageSummary RunEvalRerender(const EvalRerenderOptions& o, const StageContext& ctx,
+                             const io::Config& /*resolved*/) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "files", 0, 0};
   const rig::Rig rig = io::ReadRigFile(o.views);
   const ImageF captured = io::ReadColorTexture(o.texture, io::kTextureAlbedoPath);
   const ImageF naive = o.naive.empty() ? ImageF() : io::ReadColorTexture(o.naive, io::kTextureAlbedoPath);
@@ -684,9 +548,8 @@ void RunEvalRerender(const StageFlags& flags, AppState* state) {
                 score.FlatPsnrDb());
   }
   if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
+  return EvalJsonSummary(o.out);
 }
-
-}  // namespace
 
 CLI::App* GroupSubcommand(CLI::App* app, const std::string& name, const std::string& description) {
   try {
@@ -711,7 +574,7 @@ void RegisterEval(CLI::App* app, AppState* state) {
       "error (rigid pose and identity removed), landmark NME and vertex error over the "
       "inter-ocular distance (outer eye corners 36, 45), seconds per frame; one JSON object",
       PathKeys{{"truth", "track", "rig", "truth_rig"}, {{"out", OutputKind::kText}}},
-      RunEvalTrack);
+      StageCommand(RunEvalTrack));
   AddStage<EvalLandmarksOptions>(
       eval, state, "landmarks", "eval.landmarks", "eval landmarks",
       "Real footage: the tracked rig's 68 landmarks against dlib's in source pixels, over the "
@@ -719,14 +582,14 @@ void RegisterEval(CLI::App* app, AppState* state) {
       "out of deepfake training apart; one JSON object (score against an independent "
       "landmarker with export landmarks and analysis/compare_landmarks.py)",
       PathKeys{{"frames", "track", "rig"}, {{"out", OutputKind::kText}}},
-      RunEvalLandmarks);
+      StageCommand(RunEvalLandmarks));
   AddStage<EvalPersonOptions>(
       eval, state, "person", "eval.person", "eval person",
       "The person fit's neutral against the true person of a synthetic clip: vertex RMS after a "
       "similarity alignment, in mm and over the inter-ocular distance, beside the generic head's "
       "and the landmarks-only fit's; one JSON object",
       PathKeys{{"truth", "person"}, {{"out", OutputKind::kText}}},
-      RunEvalPerson);
+      StageCommand(RunEvalPerson));
   AddStage<EvalAppearanceOptions>(
       eval, state, "appearance", "eval.appearance", "eval appearance",
       "A captured texture against a synthetic person's true albedo: PSNR over the face region "
@@ -734,7 +597,7 @@ void RegisterEval(CLI::App* app, AppState* state) {
       "capture), beside a flat texture of the capture's mean colour, and the coverage; one JSON "
       "object",
       PathKeys{{"truth", "texture", "naive"}, {{"out", OutputKind::kText}}},
-      RunEvalAppearance);
+      StageCommand(RunEvalAppearance));
   AddStage<EvalRerenderOptions>(
       eval, state, "rerender", "eval.rerender", "eval rerender",
       "Tracked footage re-rendered with a captured texture against the footage itself (no "
@@ -743,7 +606,7 @@ void RegisterEval(CLI::App* app, AppState* state) {
       "colour channel), beside the naive capture, the generic texture and a flat colour; one "
       "JSON object",
       PathKeys{{"views", "texture", "naive"}, {{"out", OutputKind::kText}}},
-      RunEvalRerender);
+      StageCommand(RunEvalRerender));
 }
 
 }  // namespace facecap::stages

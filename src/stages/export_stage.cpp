@@ -8,6 +8,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include "stages/export_stage.h"
+
 #include "io/hdf5.h"
 #include "io/mesh_io.h"
 #include "io/dynamic_texture_file.h"
@@ -42,20 +44,6 @@ struct TrackedAnimation {
   Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> pose;                  // pitch, yaw, roll
 };
 
-// Where the animation lives in the tracking output.
-struct TrackDatasets {
-  std::string weights = "/track/weights";          // [F, S] in [0, 1]
-  std::string shape_names = "/track/shape_names";  // [S]
-  std::string pose = "/track/pose";                // [F, 3] pitch, yaw, roll (rad)
-
-  template <class V>
-  void Visit(V&& v) {
-    v("weights_dataset", weights, "dataset of per-frame shape weights [frames, shapes]");
-    v("shape_names_dataset", shape_names, "dataset of the shape names [shapes]");
-    v("pose_dataset", pose, "dataset of per-frame head rotation [frames, 3]: pitch, yaw, roll in rad");
-  }
-};
-
 TrackedAnimation ReadAnimation(const std::string& path, const TrackDatasets& d) {
   io::H5File f = io::H5File::OpenRead(path);
   TrackedAnimation a;
@@ -64,30 +52,6 @@ TrackedAnimation ReadAnimation(const std::string& path, const TrackDatasets& d) 
   a.pose = f.ReadMatrix<float>(d.pose, a.weights.rows(), 3);
   return a;
 }
-
-// [export.livelink]
-struct ExportLiveLinkOptions {
-  std::string track = "track.h5";   // tracking output
-  std::string out = "take.csv";     // CSV file
-  float fps = 0.f;                  // frame rate of the take (0: the track's)
-  float eye_look_deg = 25.f;        // eye rotation at eyeLook* weight 1
-  TrackDatasets datasets;
-
-  template <class V>
-  void Visit(V&& v) {
-    v("track", track, "tracking output (HDF5) with per-frame weights and pose");
-    v("out", out, "Live Link Face CSV file");
-    v("fps", fps, "frame rate of the take (frames per second, for the timecodes); 0: the "
-                  "track's own (its source video's rate and timecodes), else 30");
-    v("eye_look_deg", eye_look_deg, "eye rotation in degrees at an eyeLook* weight of 1, for the "
-                                    "eye yaw and pitch columns");
-    datasets.Visit(v);
-  }
-  bool Check(std::string* why) const {
-    if (!(fps >= 0.f && fps <= 1000.f)) { *why = "fps must be in [0, 1000] (0: the track's)"; return false; }
-    return true;
-  }
-};
 
 // The frame rate of an export: the option, else the track's own, else 30.
 float ExportFps(float option, const std::string& track_path) {
@@ -99,28 +63,6 @@ float ExportFps(float option, const std::string& track_path) {
   }
   return 30.f;
 }
-
-// [export.gltf]
-struct ExportGltfOptions {
-  std::string track = "track.h5";  // tracking output
-  std::string rig = "rig.h5";      // the rig that was tracked
-  std::string out = "take.glb";    // .glb or .gltf
-  float fps = 0.f;                 // 0: the track's frame rate
-  TrackDatasets datasets;
-
-  template <class V>
-  void Visit(V&& v) {
-    v("track", track, "tracking output (HDF5) with per-frame weights");
-    v("rig", rig, "the rig that was tracked (HDF5); a textured rig's texture is embedded");
-    v("out", out, "glTF file (.glb binary or .gltf text)");
-    v("fps", fps, "frame rate of the morph-target animation (0: the track's own, else 30)");
-    datasets.Visit(v);
-  }
-  bool Check(std::string* why) const {
-    if (!(fps >= 0.f && fps <= 1000.f)) { *why = "fps must be in [0, 1000] (0: the track's)"; return false; }
-    return true;
-  }
-};
 
 // "eyeBlinkLeft" -> "EyeBlinkLeft", as Live Link Face names its columns.
 std::string LiveLinkName(const std::string& arkit) {
@@ -158,149 +100,6 @@ std::string TimecodeAt(double seconds, float fps) {
 }
 
 std::string Timecode(int64_t frame, float fps) { return TimecodeAt(frame / static_cast<double>(fps), fps); }
-
-void RunExportLiveLink(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<ExportLiveLinkOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
-  const TrackedAnimation a = ReadAnimation(o.track, o.datasets);
-  const float fps = ExportFps(o.fps, o.track);
-  // Timecodes of the source video's frames when the track has them (a stride or a time range
-  // of ingest keeps them right), else frame / fps.
-  std::vector<double> seconds;
-  {
-    io::H5File f = io::H5File::OpenRead(o.track);
-    if (f.Exists("/track/timecode")) seconds = f.ReadVector<double>("/track/timecode", a.weights.rows());
-  }
-  std::vector<int> column_of;  // value column -> shape index in the track, -1 when absent
-  std::vector<std::string> missing;
-  for (const std::string& name : LiveLinkShapeOrder()) {
-    int index = -1;
-    for (size_t s = 0; s < a.shape_names.size(); ++s) {
-      if (a.shape_names[s] == name || a.shape_names[s] == LiveLinkName(name)) index = static_cast<int>(s);
-    }
-    if (index < 0) missing.push_back(name);
-    column_of.push_back(index);
-  }
-  if (missing.size() == column_of.size()) {
-    throw FileIOError(o.track + ": none of the 52 ARKit shape names is among the tracked shapes");
-  }
-  if (!missing.empty()) {
-    FC_WARN("export livelink: {} ARKit shapes are not tracked and are written as 0 (first: {})",
-            missing.size(), missing[0]);
-  }
-  auto weight = [&](int64_t f, const char* name) {
-    for (size_t s = 0; s < a.shape_names.size(); ++s) {
-      if (a.shape_names[s] == name) return a.weights(f, s);
-    }
-    return 0.f;
-  };
-  const float eye = o.eye_look_deg * static_cast<float>(M_PI / 180.0);
-  const std::string tmp = o.out + ".partial";
-  {
-    std::ofstream csv(tmp);
-    if (!csv) throw OutputError(o.out + ": cannot write");
-    csv << "Timecode,BlendShapeCount";
-    for (const std::string& name : LiveLinkShapeOrder()) csv << "," << LiveLinkName(name);
-    csv << ",HeadYaw,HeadPitch,HeadRoll,LeftEyeYaw,LeftEyePitch,LeftEyeRoll,RightEyeYaw,"
-           "RightEyePitch,RightEyeRoll\n";
-    csv << std::setprecision(6);
-    for (int64_t f = 0; f < a.weights.rows(); ++f) {
-      csv << (seconds.empty() || seconds[f] < 0. ? Timecode(f, fps) : TimecodeAt(seconds[f], fps))
-          << ",61";
-      for (int index : column_of) csv << "," << (index < 0 ? 0.f : a.weights(f, index));
-      // Head rotation as Live Link Face writes it: yaw, pitch, roll in radians.
-      csv << "," << a.pose(f, 1) << "," << a.pose(f, 0) << "," << a.pose(f, 2);
-      // Eye rotations from the eyeLook shapes (out/in: yaw, up/down: pitch).
-      const float left_yaw = eye * (weight(f, "eyeLookOutLeft") - weight(f, "eyeLookInLeft"));
-      const float left_pitch = eye * (weight(f, "eyeLookUpLeft") - weight(f, "eyeLookDownLeft"));
-      const float right_yaw = eye * (weight(f, "eyeLookInRight") - weight(f, "eyeLookOutRight"));
-      const float right_pitch = eye * (weight(f, "eyeLookUpRight") - weight(f, "eyeLookDownRight"));
-      csv << "," << left_yaw << "," << left_pitch << ",0," << right_yaw << "," << right_pitch
-          << ",0\n";
-    }
-    if (!csv) throw OutputError(o.out + ": write failed");
-  }
-  std::filesystem::rename(tmp, o.out);
-  FC_INFO("export livelink: {} frames, 61 values per frame -> {}", a.weights.rows(), o.out);
-}
-
-void RunExportGltf(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<ExportGltfOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
-  const rig::Rig rig = io::ReadRigFile(o.rig);
-  const TrackedAnimation a = ReadAnimation(o.track, o.datasets);
-  // Weights in the rig's shape order, matched by name.
-  std::vector<std::vector<float>> animation(a.weights.rows(),
-                                            std::vector<float>(rig.NumShapes(), 0.f));
-  int matched = 0;
-  for (int s = 0; s < rig.NumShapes(); ++s) {
-    for (size_t t = 0; t < a.shape_names.size(); ++t) {
-      if (a.shape_names[t] != rig.shapes[s].name) continue;
-      ++matched;
-      for (int64_t f = 0; f < a.weights.rows(); ++f) animation[f][s] = a.weights(f, t);
-    }
-  }
-  if (matched == 0) {
-    throw FileIOError(o.track + ": no tracked shape name matches a shape of " + o.rig);
-  }
-  const float fps = ExportFps(o.fps, o.track);
-  const Image8 texture = ReadRigTextureSrgb(o.rig);
-  const PartMeshes parts = ReadPartMeshes(o.rig, rig);
-  io::ExportRigToGltf(parts.face, o.out, &animation, fps, texture.empty() ? nullptr : &texture, &parts.meshes);
-  FC_INFO("export gltf: {} morph targets ({} animated), {} frames at {} fps{}{} -> {}",
-          rig.NumShapes(), matched, animation.size(), fps,
-          texture.empty() ? "" : ", the rig file's texture",
-          parts.meshes.empty() ? "" : ", " + std::to_string(parts.meshes.size()) + " secondary parts", o.out);
-}
-
-// [export.overlay]
-struct ExportOverlayOptions {
-  std::string track = "track.h5";    // tracking output (pose, translation, scale, weights)
-  std::string rig = "rig.h5";        // the rig that was tracked
-  std::string frames = "clip.h5";    // the frames that were tracked
-  std::string frames_dataset = "";   // image dataset ("": see Visit)
-  std::string out = "overlay.mp4";   // mp4 file
-  float fps = 0.f;                   // frame rate of the video (0: the track's)
-  float opacity = 0.45f;             // opacity of the segmentation colours over the frame
-  int scale = 0;                     // magnification (0: 2 below 256 pixels, else 1)
-  int count = 0;                     // frames to draw from the first (0: all tracked frames)
-  std::string sheet = "";            // contact sheet PNG of evenly spaced frames ("": none)
-  int sheet_count = 12;              // frames on the sheet
-  bool texture = false;              // the rig shaded with its texture instead of its regions
-
-  template <class V>
-  void Visit(V&& v) {
-    v("track", track, "tracking output (HDF5): /track/pose, translation, scale, weights");
-    v("rig", rig, "the rig that was tracked (HDF5)");
-    v("frames", frames, "file of the frames that were tracked (a wild clip or an ingest file)");
-    v("frames_dataset", frames_dataset,
-      "image dataset of the frames (empty: the source video's own frames for a track of an "
-      "ingest output's crops, else /frames/image, then /frames/crop)");
-    v("out", out, "mp4 file: each frame with the tracked rig drawn over it");
-    v("fps", fps, "frame rate of the video (0: the track's own, else 30)");
-    v("opacity", opacity, "opacity of the rig's segmentation colours over the frame, in [0, 1]");
-    v("scale", scale, "magnification of the video (nearest neighbour), 1 to 8 (0: 2 for frames "
-                      "under 256 pixels, else 1)");
-    v("count", count, "frames to draw from the first (0: all tracked frames)");
-    v("sheet", sheet, "also a contact sheet PNG of sheet_count evenly spaced frames (empty: none)");
-    v("sheet_count", sheet_count, "frames on the contact sheet");
-    v("texture", texture,
-      "draw the rig shaded with the rig file's texture (a dynamic texture library: its texture at each "
-      "frame's weights) at `opacity` instead of its segmentation colours");
-  }
-  bool Check(std::string* why) const {
-    if (!(fps >= 0.f && fps <= 1000.f)) { *why = "fps must be in [0, 1000] (0: the track's)"; return false; }
-    if (!(opacity >= 0.f && opacity <= 1.f)) { *why = "opacity must be in [0, 1]"; return false; }
-    if (scale < 0 || scale > 8) { *why = "scale must be in [0, 8]"; return false; }
-    if (count < 0) { *why = "count must be >= 0"; return false; }
-    if (sheet_count < 1 || sheet_count > 400) { *why = "sheet_count must be in [1, 400]"; return false; }
-    return true;
-  }
-};
 
 // The frame with the posed rig drawn over it: its segmentation colours blended in at
 // `opacity`, and its region borders and silhouette in white.
@@ -466,11 +265,108 @@ class OverlayFrames {
   std::unique_ptr<IngestedFrames> ingested_;
 };
 
-void RunExportOverlay(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<ExportOverlayOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+}  // namespace
+
+StageSummary RunExportLiveLink(const ExportLiveLinkOptions& o, const StageContext& ctx,
+                               const io::Config& /*resolved*/) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "frames", 0, 0};
+  const TrackedAnimation a = ReadAnimation(o.track, o.datasets);
+  const float fps = ExportFps(o.fps, o.track);
+  // Timecodes of the source video's frames when the track has them (a stride or a time range
+  // of ingest keeps them right), else frame / fps.
+  std::vector<double> seconds;
+  {
+    io::H5File f = io::H5File::OpenRead(o.track);
+    if (f.Exists("/track/timecode")) seconds = f.ReadVector<double>("/track/timecode", a.weights.rows());
+  }
+  std::vector<int> column_of;  // value column -> shape index in the track, -1 when absent
+  std::vector<std::string> missing;
+  for (const std::string& name : LiveLinkShapeOrder()) {
+    int index = -1;
+    for (size_t s = 0; s < a.shape_names.size(); ++s) {
+      if (a.shape_names[s] == name || a.shape_names[s] == LiveLinkName(name)) index = static_cast<int>(s);
+    }
+    if (index < 0) missing.push_back(name);
+    column_of.push_back(index);
+  }
+  if (missing.size() == column_of.size()) {
+    throw FileIOError(o.track + ": none of the 52 ARKit shape names is among the tracked shapes");
+  }
+  if (!missing.empty()) {
+    FC_WARN("export livelink: {} ARKit shapes are not tracked and are written as 0 (first: {})",
+            missing.size(), missing[0]);
+  }
+  auto weight = [&](int64_t f, const char* name) {
+    for (size_t s = 0; s < a.shape_names.size(); ++s) {
+      if (a.shape_names[s] == name) return a.weights(f, s);
+    }
+    return 0.f;
+  };
+  const float eye = o.eye_look_deg * static_cast<float>(M_PI / 180.0);
+  const std::string tmp = o.out + ".partial";
+  {
+    std::ofstream csv(tmp);
+    if (!csv) throw OutputError(o.out + ": cannot write");
+    csv << "Timecode,BlendShapeCount";
+    for (const std::string& name : LiveLinkShapeOrder()) csv << "," << LiveLinkName(name);
+    csv << ",HeadYaw,HeadPitch,HeadRoll,LeftEyeYaw,LeftEyePitch,LeftEyeRoll,RightEyeYaw,"
+           "RightEyePitch,RightEyeRoll\n";
+    csv << std::setprecision(6);
+    for (int64_t f = 0; f < a.weights.rows(); ++f) {
+      csv << (seconds.empty() || seconds[f] < 0. ? Timecode(f, fps) : TimecodeAt(seconds[f], fps))
+          << ",61";
+      for (int index : column_of) csv << "," << (index < 0 ? 0.f : a.weights(f, index));
+      // Head rotation as Live Link Face writes it: yaw, pitch, roll in radians.
+      csv << "," << a.pose(f, 1) << "," << a.pose(f, 0) << "," << a.pose(f, 2);
+      // Eye rotations from the eyeLook shapes (out/in: yaw, up/down: pitch).
+      const float left_yaw = eye * (weight(f, "eyeLookOutLeft") - weight(f, "eyeLookInLeft"));
+      const float left_pitch = eye * (weight(f, "eyeLookUpLeft") - weight(f, "eyeLookDownLeft"));
+      const float right_yaw = eye * (weight(f, "eyeLookInRight") - weight(f, "eyeLookOutRight"));
+      const float right_pitch = eye * (weight(f, "eyeLookUpRight") - weight(f, "eyeLookDownRight"));
+      csv << "," << left_yaw << "," << left_pitch << ",0," << right_yaw << "," << right_pitch
+          << ",0\n";
+    }
+    if (!csv) throw OutputError(o.out + ": write failed");
+  }
+  std::filesystem::rename(tmp, o.out);
+  FC_INFO("export livelink: {} frames, 61 values per frame -> {}", a.weights.rows(), o.out);
+  return StageSummary{o.out, "frames", a.weights.rows(), a.weights.rows()};
+}
+
+StageSummary RunExportGltf(const ExportGltfOptions& o, const StageContext& ctx,
+                           const io::Config& /*resolved*/) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "frames", 0, 0};
+  const rig::Rig rig = io::ReadRigFile(o.rig);
+  const TrackedAnimation a = ReadAnimation(o.track, o.datasets);
+  // Weights in the rig's shape order, matched by name.
+  std::vector<std::vector<float>> animation(a.weights.rows(),
+                                            std::vector<float>(rig.NumShapes(), 0.f));
+  int matched = 0;
+  for (int s = 0; s < rig.NumShapes(); ++s) {
+    for (size_t t = 0; t < a.shape_names.size(); ++t) {
+      if (a.shape_names[t] != rig.shapes[s].name) continue;
+      ++matched;
+      for (int64_t f = 0; f < a.weights.rows(); ++f) animation[f][s] = a.weights(f, t);
+    }
+  }
+  if (matched == 0) {
+    throw FileIOError(o.track + ": no tracked shape name matches a shape of " + o.rig);
+  }
+  const float fps = ExportFps(o.fps, o.track);
+  const Image8 texture = ReadRigTextureSrgb(o.rig);
+  const PartMeshes parts = ReadPartMeshes(o.rig, rig);
+  io::ExportRigToGltf(parts.face, o.out, &animation, fps, texture.empty() ? nullptr : &texture, &parts.meshes);
+  FC_INFO("export gltf: {} morph targets ({} animated), {} frames at {} fps{}{} -> {}",
+          rig.NumShapes(), matched, animation.size(), fps,
+          texture.empty() ? "" : ", the rig file's texture",
+          parts.meshes.empty() ? "" : ", " + std::to_string(parts.meshes.size()) + " secondary parts", o.out);
+  const int64_t frames = static_cast<int64_t>(animation.size());
+  return StageSummary{o.out, "frames", frames, frames};
+}
+
+StageSummary RunExportOverlay(const ExportOverlayOptions& o, const StageContext& ctx,
+                              const io::Config& /*resolved*/) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "frames", 0, 0};
   std::string why;
   if (!o.Check(&why)) throw InvalidInputError("export overlay: " + why);
   const rig::Rig rig = io::ReadRigFile(o.rig);
@@ -530,34 +426,12 @@ void RunExportOverlay(const StageFlags& flags, AppState* state) {
     io::WriteImage(o.sheet, render::ContactSheet(tiles));
     FC_INFO("export overlay: contact sheet of {} frames -> {}", n, o.sheet);
   }
+  return StageSummary{o.out, "frames", count, count};
 }
 
-// [export.landmarks]
-struct ExportLandmarksOptions {
-  std::string track = "track.h5";     // tracking of an ingest output's crops
-  std::string rig = "rig.h5";         // the rig that was tracked
-  std::string frames = "frames.h5";   // the ingest output
-  std::string out = "landmarks.csv";  // CSV file
-
-  template <class V>
-  void Visit(V&& v) {
-    v("track", track, "tracking output (HDF5) of an ingest output's crops (track --frames)");
-    v("rig", rig, "the rig that was tracked (HDF5)");
-    v("frames", frames, "the ingest output (frames.h5) the track was made of");
-    v("out", out, "CSV file: source_index, timecode, x_0..x_67, y_0..y_67, visible_0..visible_67 "
-                  "in source video pixels (pixel centres at integers, as dlib and OpenCV)");
-  }
-  bool Check(std::string* why) const {
-    if (out.empty()) { *why = "out must name a file"; return false; }
-    return true;
-  }
-};
-
-void RunExportLandmarks(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<ExportLandmarksOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+StageSummary RunExportLandmarks(const ExportLandmarksOptions& o, const StageContext& ctx,
+                                const io::Config& /*resolved*/) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "frames", 0, 0};
   std::string why;
   if (!o.Check(&why)) throw InvalidInputError("export landmarks: " + why);
   const rig::Rig rig = io::ReadRigFile(o.rig);
@@ -612,9 +486,8 @@ void RunExportLandmarks(const StageFlags& flags, AppState* state) {
   }
   std::filesystem::rename(tmp, o.out);
   FC_INFO("export landmarks: {} frames ({} with landmarks) -> {}", frames.NumFrames(), written, o.out);
+  return StageSummary{o.out, "frames", frames.NumFrames(), frames.NumFrames()};
 }
-
-}  // namespace
 
 void RegisterExport(CLI::App* app, AppState* state) {
   CLI::App* exp = GroupSubcommand(app, "export", "Tracked animation to other tools' formats");
@@ -624,27 +497,27 @@ void RegisterExport(CLI::App* app, AppState* state) {
       "Live Link Face CSV: Timecode, BlendShapeCount, then 61 values per frame (the 52 ARKit "
       "shapes matched by name, head yaw/pitch/roll, eye yaw/pitch/roll)",
       PathKeys{{"track"}, {{"out", OutputKind::kCsv}}},
-      RunExportLiveLink);
+      StageCommand(RunExportLiveLink));
   AddStage<ExportGltfOptions>(
       exp, state, "gltf", "export.gltf", "export gltf",
       "glTF (.glb/.gltf) of the rig with one morph target per shape and the tracked weights as "
       "a morph-target animation",
       PathKeys{{"track", "rig"}, {{"out", OutputKind::kGltf}}},
-      RunExportGltf);
+      StageCommand(RunExportGltf));
   AddStage<ExportOverlayOptions>(
       exp, state, "overlay", "export.overlay", "export overlay",
       "mp4 of the tracked rig drawn over the frames it was tracked on (the source video's own "
       "frames for a track of footage): segmentation colours blended in, region borders and "
       "silhouette in white; optionally a contact sheet PNG",
       PathKeys{{"track", "rig", "frames"}, {{"out", OutputKind::kVideo}, {"sheet", OutputKind::kImage}}},
-      RunExportOverlay);
+      StageCommand(RunExportOverlay));
   AddStage<ExportLandmarksOptions>(
       exp, state, "landmarks", "export.landmarks", "export landmarks",
       "CSV of the tracked rig's 68 landmarks (iBUG order) in the source video's pixels, one row "
       "per ingested frame (frames without a face: empty coordinates), so that other tools can "
       "score the tracking",
       PathKeys{{"track", "rig", "frames"}, {{"out", OutputKind::kCsv}}},
-      RunExportLandmarks);
+      StageCommand(RunExportLandmarks));
 }
 
 }  // namespace facecap::stages

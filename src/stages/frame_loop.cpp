@@ -37,7 +37,6 @@ int64_t RunFrameLoop(const dist::Comm& comm, std::vector<int64_t> pending, int64
   const int64_t num_pending = static_cast<int64_t>(pending.size());
   Progress progress(options.what, total, total - num_pending, options.progress_seconds,
                     comm.IsMainRank());
-  int64_t computed = 0;
   for (int64_t round_begin = 0; round_begin < num_pending; round_begin += per_round) {
     const int64_t round_size = std::min(per_round, num_pending - round_begin);
     // This rank's positions within the round, and their results.
@@ -78,7 +77,6 @@ int64_t RunFrameLoop(const dist::Comm& comm, std::vector<int64_t> pending, int64
       packed.insert(packed.end(), s, s + sizeof(size));
       packed.insert(packed.end(), results[k].begin(), results[k].end());
     }
-    computed += static_cast<int64_t>(mine.size());
     results.clear();
     auto gathered = comm.Gather(packed);
     dist::CoordinateExceptions(comm, [&] {
@@ -118,7 +116,7 @@ int64_t RunFrameLoop(const dist::Comm& comm, std::vector<int64_t> pending, int64
     }
   }
   progress.Finish();
-  return computed;
+  return num_pending;
 }
 
 }  // namespace facecap::stages

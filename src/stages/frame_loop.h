@@ -38,7 +38,8 @@ using FrameCommit = std::function<void(const std::vector<int64_t>& frames,
                                        const std::vector<std::vector<uint8_t>>& results)>;
 
 // Runs the loop. `pending` is read on rank 0 and broadcast; `total` and `already_done` are
-// for the progress lines. Returns the number of frames computed by this run.
+// for the progress lines. Returns the number of frames computed by this run, by all ranks
+// together (the same on every rank).
 int64_t RunFrameLoop(const dist::Comm& comm, std::vector<int64_t> pending, int64_t total,
                      const FrameLoopOptions& options, const FrameCompute& compute,
                      const FrameCommit& commit);

@@ -518,17 +518,6 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
   return run.Run(start);
 }
 
-namespace {
-
-void RunIngestCommand(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<IngestOptions>(flags, &ctx, &resolved);
-  RunIngest(o, ctx, resolved);
-}
-
-}  // namespace
-
 void RegisterIngest(CLI::App* app, AppState* state) {
   AddStage<IngestOptions>(
       app, state, "ingest", "ingest", "ingest",
@@ -537,7 +526,7 @@ void RegisterIngest(CLI::App* app, AppState* state) {
       "frame index and timecode per frame; spread across ranks, identical for any rank count, "
       "resumable",
       PathKeys{{"video", "images", "landmark_model"}, {{"out", OutputKind::kHdf5}}},
-      RunIngestCommand);
+      StageCommand(RunIngest));
 }
 
 }  // namespace facecap::stages

@@ -11,6 +11,8 @@
 #include <iostream>
 #include <sstream>
 
+#include "stages/lipsync_stage.h"
+
 #include "dist/comm.h"
 #include "io/atomic_file.h"
 #include "io/audio.h"
@@ -37,58 +39,6 @@ namespace {
 
 using RowMatrixF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-
-// [lipsync.blend]
-struct LipsyncBlendOptions {
-  std::string track = "track.h5";    // the video's solve
-  std::string mouth = "mouth.h5";    // the mouth source's track
-  std::string out = "blended.h5";    // the blended track
-  std::string video = "";            // the video with its sound (alignment)
-  std::string mouth_video = "";      // the mouth source's video with its sound (alignment)
-  double offset_seconds = 0.;        // without the two videos: the mouth source's delay
-  double max_offset_seconds = 2.;    // alignment searches [-max, max]
-  std::vector<std::string> mouth_controls = lipsync::DefaultMouthControls();
-  std::vector<float> crossfade = {1.f};  // one for every mouth control, or one each
-  double edge_fade_seconds = 1.;     // the mouth source's share fades to 0 beyond its span
-
-  template <class V>
-  void Visit(V&& v) {
-    v("track", track, "the video's solve (track.h5 from track)");
-    v("mouth", mouth, "the mouth source's track (lipsync track of a lip video)");
-    v("out", out, "the blended track (HDF5; every export and eval takes it)");
-    v("video", video,
-      "the tracked video, with sound: with mouth_video, the offset is measured from the two "
-      "sound tracks (empty: offset_seconds)");
-    v("mouth_video", mouth_video, "the mouth source's video, with the same sound");
-    v("offset_seconds", offset_seconds,
-      "without the two videos: how much later the mouth source's clock runs (s)");
-    v("max_offset_seconds", max_offset_seconds, "the alignment searches offsets up to this (s)");
-    v("mouth_controls", mouth_controls, "the controls taken from the mouth source, by name");
-    v("crossfade", crossfade,
-      "per mouth control, the mouth source's share in [0, 1] (one value: every control)");
-    v("edge_fade_seconds", edge_fade_seconds,
-      "before the mouth source's first frame and after its last, its end frames are held and "
-      "their share falls linearly to 0 over this many seconds (0: the video's solve at once)");
-  }
-  bool Check(std::string* why) const {
-    if (crossfade.size() != 1 && crossfade.size() != mouth_controls.size()) {
-      *why = "crossfade needs one value or one per mouth control (" +
-             std::to_string(mouth_controls.size()) + "), got " + std::to_string(crossfade.size());
-      return false;
-    }
-    for (float c : crossfade) {
-      if (!(c >= 0.f && c <= 1.f)) { *why = "crossfade values must be in [0, 1]"; return false; }
-    }
-    if (video.empty() != mouth_video.empty()) {
-      *why = "video and mouth_video go together (the offset from both sound tracks)";
-      return false;
-    }
-    if (!(max_offset_seconds > 0.)) { *why = "max_offset_seconds must be positive"; return false; }
-    if (!(edge_fade_seconds >= 0.)) { *why = "edge_fade_seconds must be 0 or more"; return false; }
-    return true;
-  }
-};
-
 // The offset of the mouth source: measured from the sound of both videos, or given.
 double BlendOffset(const LipsyncBlendOptions& o) {
   if (o.video.empty()) return o.offset_seconds;
@@ -106,201 +56,6 @@ double BlendOffset(const LipsyncBlendOptions& o) {
   }
   return r.offset_seconds;
 }
-
-void RunLipsyncBlend(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<LipsyncBlendOptions>(flags, &ctx, &resolved);
-  dist::CoordinateExceptions(ctx.comm, [&] {
-    if (!ctx.comm.IsMainRank()) return;
-    std::string why;
-    if (!o.Check(&why)) throw InvalidInputError("lipsync blend: " + why);
-    const TrackTimeline video = ReadTimeline(o.track);
-    const TrackTimeline mouth = ReadTimeline(o.mouth);
-    const double offset = BlendOffset(o);
-    // The mouth source's solved frames, and its values at the video's times plus the offset.
-    std::vector<double> mouth_times;
-    std::vector<int> rows;
-    for (int64_t f = 0; f < mouth.frames(); ++f) {
-      if (mouth.Solved(f)) {
-        rows.push_back(static_cast<int>(f));
-        mouth_times.push_back(mouth.times[f]);
-      }
-    }
-    if (rows.empty()) throw FileIOError(o.mouth + ": no frame of the mouth source was solved");
-    std::vector<double> at;
-    for (double t : video.times) at.push_back(t + offset);
-    // Columns: the mouth controls both tracks have.
-    const int64_t F = video.frames();
-    const int S = static_cast<int>(video.names.size());
-    Eigen::MatrixXf source(static_cast<int>(rows.size()), S);
-    source.setZero();
-    Eigen::VectorXf crossfade = Eigen::VectorXf::Zero(S);
-    int blended = 0;
-    for (size_t k = 0; k < o.mouth_controls.size(); ++k) {
-      const int vc = video.Column(o.mouth_controls[k]), mc = mouth.Column(o.mouth_controls[k]);
-      if (vc < 0 || mc < 0) continue;
-      for (size_t r = 0; r < rows.size(); ++r) source(static_cast<int>(r), vc) = mouth.weights(rows[r], mc);
-      crossfade[vc] = o.crossfade.size() == 1 ? o.crossfade[0] : o.crossfade[k];
-      ++blended;
-    }
-    if (blended == 0) {
-      throw FileIOError(o.mouth + " and " + o.track + " share none of the mouth controls");
-    }
-    const Eigen::MatrixXf mouth_at = lipsync::ResampleAtTimes(source, mouth_times, at);
-    const Eigen::MatrixXf video_w = video.weights.cast<float>();
-    Eigen::MatrixXf out = lipsync::BlendControls(video_w, mouth_at, crossfade);
-    // Outside the mouth source's time span its end rows fade out to the video's solve.
-    const std::vector<float> shares =
-        lipsync::CoverageShares(at, mouth_times.front(), mouth_times.back(), o.edge_fade_seconds);
-    int64_t covered = 0;
-    for (int64_t f = 0; f < F; ++f) {
-      if (shares[f] == 1.f) ++covered;
-      else out.row(f) = video_w.row(f) + shares[f] * (out.row(f) - video_w.row(f));
-    }
-    // The video's track file with the blended weights, written beside out and renamed.
-    const std::string partial = io::H5File::PartialPath(o.out);
-    std::error_code ec;
-    std::filesystem::copy_file(o.track, partial, std::filesystem::copy_options::overwrite_existing, ec);
-    if (ec) throw OutputError(partial + ": cannot copy " + o.track + ": " + ec.message());
-    {
-      io::H5File f = io::H5File::OpenReadWrite(partial);
-      const RowMatrixF row_major = out;
-      f.WriteFrames<float>("/track/weights", 0, F, row_major.data());
-      f.SetAttribute("/track", "lipsync_mouth", o.mouth);
-      f.SetAttribute("/track", "lipsync_offset_seconds", offset);
-      f.WriteProvenance(MakeProvenance(ctx, "lipsync blend", resolved));
-      f.Close();
-    }
-    std::filesystem::rename(partial, o.out, ec);
-    if (ec) throw OutputError(o.out + ": cannot rename " + partial + ": " + ec.message());
-    FC_INFO("lipsync blend: {} mouth controls of {} over {} of {} frames (offset {:.1f} ms) -> {}",
-            blended, o.mouth, covered, F, 1000. * offset, o.out);
-  });
-}
-
-// [lipsync.audio]
-struct LipsyncAudioOptions {
-  std::string video = "video.mp4";   // the video whose sound is spoken
-  std::string rig = "rig.h5";        // the rig whose mouth controls are written
-  std::string out = "mouth_audio.h5";
-  std::string transcript = "";       // the words spoken, when known
-  double fps = 30.;                  // frames per second of the mouth track
-  std::string model_dir = lipsync::RecognizerOptions().model_dir;
-  lipsync::DominanceOptions dominance;
-
-  template <class V>
-  void Visit(V&& v) {
-    v("video", video, "the video (or audio file) whose sound is the speech");
-    v("rig", rig, "the rig whose mouth controls the track names (person fit's rig)");
-    v("out", out, "the mouth track (HDF5) for lipsync blend");
-    v("transcript", transcript,
-      "the words spoken, when known: aligned to the sound with a grammar of exactly these "
-      "words (empty: phones recognized freely)");
-    v("fps", fps, "frames per second of the mouth track");
-    v("model_dir", model_dir, "pocketsphinx's English model folder (Debian: pocketsphinx-en-us)");
-    v("kappa", dominance.kappa, "exponent of the dominance functions");
-    v("hold", dominance.hold, "middle fraction of a phone where its dominance is full");
-    v("spread", dominance.spread, "a phone's dominance reaches this fraction of its duration further");
-    v("tau0", dominance.tau0, "seconds added to every phone's dominance reach");
-    v("amplitude", dominance.amplitude, "scale of the visemes' mouth poses");
-  }
-  bool Check(std::string* why) const {
-    if (!(fps > 0. && fps <= 1000.)) { *why = "fps must be in (0, 1000]"; return false; }
-    if (!(dominance.kappa > 0.f) || !(dominance.spread >= 0.f) || !(dominance.tau0 > 0.f) ||
-        !(dominance.hold >= 0.f && dominance.hold <= 1.f) || !(dominance.amplitude >= 0.f)) {
-      *why = "kappa and tau0 must be positive, spread and amplitude >= 0, hold in [0, 1]";
-      return false;
-    }
-    return true;
-  }
-};
-
-void RunLipsyncAudio(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<LipsyncAudioOptions>(flags, &ctx, &resolved);
-  dist::CoordinateExceptions(ctx.comm, [&] {
-    if (!ctx.comm.IsMainRank()) return;
-    std::string why;
-    if (!o.Check(&why)) throw InvalidInputError("lipsync audio: " + why);
-    const rig::Rig rig = io::ReadRigFile(o.rig);
-    std::vector<std::string> names;
-    for (const auto& shape : rig.shapes) names.push_back(shape.name);
-    if (lipsync::ShapeIndices(names, lipsync::DefaultMouthControls()).empty()) {
-      throw FileIOError(o.rig + ": the rig has none of the ARKit mouth controls (jawOpen, mouth*)");
-    }
-    const io::Audio sound = io::DecodeAudio(o.video, lipsync::kRecognizerRate);
-    lipsync::RecognizerOptions recognizer;
-    recognizer.model_dir = o.model_dir;
-    recognizer.transcript = o.transcript;
-    const std::vector<lipsync::PhoneSegment> phones = lipsync::RecognizePhones(sound.samples, recognizer);
-    const double seconds = static_cast<double>(sound.samples.size()) / sound.rate;
-    const int frames = std::max(1, static_cast<int>(std::ceil(seconds * o.fps)));
-    const Eigen::MatrixXf mouth = lipsync::MouthFromPhones(phones, names, frames, o.fps, o.dominance);
-    io::H5File f = io::H5File::CreateAtomic(o.out);
-    f.WriteStrings("/track/shape_names", names);
-    f.WriteMatrix("/track/weights", RowMatrixF(mouth));
-    f.WriteMatrix("/track/pose", RowMatrixF::Zero(frames, 3));
-    f.SetAttribute("/track/pose", "meaning", std::string("none: a mouth source has no head pose"));
-    f.WriteVector<int32_t>("/track/termination", std::vector<int32_t>(frames, 0));
-    std::vector<double> timecode(frames);
-    for (int i = 0; i < frames; ++i) timecode[i] = i / o.fps;
-    f.WriteVector<double>("/track/timecode", timecode);
-    f.SetAttribute("/track/timecode", "units", std::string("seconds from the start of the sound"));
-    f.SetAttribute("/track", "fps", o.fps);
-    f.SetAttribute("/track", "source", o.video);
-    WritePhones(&f, "/lipsync", phones, "ARPAbet (pocketsphinx)", "s, the sound's clock");
-    f.WriteProvenance(MakeProvenance(ctx, "lipsync audio", resolved));
-    f.Commit();
-    int speech = 0;
-    for (const auto& p : phones) speech += p.viseme != 0;
-    FC_INFO("lipsync audio: {} phones ({} spoken) in {:.1f} s of {}{} -> {} frames of mouth controls in {}",
-            phones.size(), speech, seconds, o.video, o.transcript.empty() ? "" : " (transcript aligned)",
-            frames, o.out);
-  });
-}
-
-// [eval.lipsync]
-struct EvalLipsyncOptions {
-  std::string truth = "clip.h5";        // the talking clip (synth clip with speech)
-  std::vector<std::string> tracks;      // tracks of its video to score
-  std::vector<std::string> names;       // their row names
-  std::vector<std::string> mouth_controls = lipsync::DefaultMouthControls();
-  float closure_gap = 0.01f;            // lips closed at an inner gap at most this (IOD)
-  double closure_tolerance_seconds = 0.04;
-  bool json = true;
-  std::string out = "";
-  std::string gaps = "";
-
-  template <class V>
-  void Visit(V&& v) {
-    v("truth", truth, "the talking clip (synth clip with speech): true weights, poses and rig");
-    v("tracks", tracks, "track files of the clip's video to score");
-    v("names", names, "a row name per track (empty: the file names)");
-    v("mouth_controls", mouth_controls, "the controls scored as the mouth");
-    v("closure_gap", closure_gap,
-      "the lips are closed when their inner gap is at most this, in inter-ocular distances "
-      "(the truth's rig at each row's weights)");
-    v("closure_tolerance_seconds", closure_tolerance_seconds,
-      "a found closure counts when its centre is this close to a true one's");
-    v("json", json, "print one JSON object (false: a table)");
-    v("out", out, "also write the JSON object to this file (empty: none)");
-    v("gaps", gaps,
-      "also write every row's inner lip gap per frame, beside the truth's, to this CSV "
-      "(row,frame,source_index,seconds,truth_gap,gap; IOD) (empty: none)");
-  }
-  bool Check(std::string* why) const {
-    if (tracks.empty()) { *why = "tracks names no track to score"; return false; }
-    if (!names.empty() && names.size() != tracks.size()) {
-      *why = "names needs one name per track";
-      return false;
-    }
-    if (!(closure_gap > 0.f)) { *why = "closure_gap must be positive"; return false; }
-    if (!(closure_tolerance_seconds > 0.)) { *why = "closure_tolerance_seconds must be positive"; return false; }
-    return true;
-  }
-};
 
 struct LipsyncRow {
   std::string name;
@@ -368,11 +123,130 @@ LipsyncRow ScoreLipsync(const EvalLipsyncOptions& o, const LipsyncTruth& truth,
   return row;
 }
 
-void RunEvalLipsync(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<EvalLipsyncOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+}  // namespace
+
+StageSummary RunLipsyncBlend(const LipsyncBlendOptions& o, const StageContext& ctx,
+                             const io::Config& resolved) {
+  StageSummary summary{o.out, "frames", 0, 0};
+  dist::CoordinateExceptions(ctx.comm, [&] {
+    if (!ctx.comm.IsMainRank()) return;
+    std::string why;
+    if (!o.Check(&why)) throw InvalidInputError("lipsync blend: " + why);
+    const TrackTimeline video = ReadTimeline(o.track);
+    const TrackTimeline mouth = ReadTimeline(o.mouth);
+    const double offset = BlendOffset(o);
+    // The mouth source's solved frames, and its values at the video's times plus the offset.
+    std::vector<double> mouth_times;
+    std::vector<int> rows;
+    for (int64_t f = 0; f < mouth.frames(); ++f) {
+      if (mouth.Solved(f)) {
+        rows.push_back(static_cast<int>(f));
+        mouth_times.push_back(mouth.times[f]);
+      }
+    }
+    if (rows.empty()) throw FileIOError(o.mouth + ": no frame of the mouth source was solved");
+    std::vector<double> at;
+    for (double t : video.times) at.push_back(t + offset);
+    // Columns: the mouth controls both tracks have.
+    const int64_t F = video.frames();
+    const int S = static_cast<int>(video.names.size());
+    Eigen::MatrixXf source(static_cast<int>(rows.size()), S);
+    source.setZero();
+    Eigen::VectorXf crossfade = Eigen::VectorXf::Zero(S);
+    int blended = 0;
+    for (size_t k = 0; k < o.mouth_controls.size(); ++k) {
+      const int vc = video.Column(o.mouth_controls[k]), mc = mouth.Column(o.mouth_controls[k]);
+      if (vc < 0 || mc < 0) continue;
+      for (size_t r = 0; r < rows.size(); ++r) source(static_cast<int>(r), vc) = mouth.weights(rows[r], mc);
+      crossfade[vc] = o.crossfade.size() == 1 ? o.crossfade[0] : o.crossfade[k];
+      ++blended;
+    }
+    if (blended == 0) {
+      throw FileIOError(o.mouth + " and " + o.track + " share none of the mouth controls");
+    }
+    const Eigen::MatrixXf mouth_at = lipsync::ResampleAtTimes(source, mouth_times, at);
+    const Eigen::MatrixXf video_w = video.weights.cast<float>();
+    Eigen::MatrixXf out = lipsync::BlendControls(video_w, mouth_at, crossfade);
+    // Outside the mouth source's time span its end rows fade out to the video's solve.
+    const std::vector<float> shares =
+        lipsync::CoverageShares(at, mouth_times.front(), mouth_times.back(), o.edge_fade_seconds);
+    int64_t covered = 0;
+    for (int64_t f = 0; f < F; ++f) {
+      if (shares[f] == 1.f) ++covered;
+      else out.row(f) = video_w.row(f) + shares[f] * (out.row(f) - video_w.row(f));
+    }
+    // The video's track file with the blended weights, written beside out and renamed.
+    const std::string partial = io::H5File::PartialPath(o.out);
+    std::error_code ec;
+    std::filesystem::copy_file(o.track, partial, std::filesystem::copy_options::overwrite_existing, ec);
+    if (ec) throw OutputError(partial + ": cannot copy " + o.track + ": " + ec.message());
+    {
+      io::H5File f = io::H5File::OpenReadWrite(partial);
+      const RowMatrixF row_major = out;
+      f.WriteFrames<float>("/track/weights", 0, F, row_major.data());
+      f.SetAttribute("/track", "lipsync_mouth", o.mouth);
+      f.SetAttribute("/track", "lipsync_offset_seconds", offset);
+      f.WriteProvenance(MakeProvenance(ctx, "lipsync blend", resolved));
+      f.Close();
+    }
+    std::filesystem::rename(partial, o.out, ec);
+    if (ec) throw OutputError(o.out + ": cannot rename " + partial + ": " + ec.message());
+    FC_INFO("lipsync blend: {} mouth controls of {} over {} of {} frames (offset {:.1f} ms) -> {}",
+            blended, o.mouth, covered, F, 1000. * offset, o.out);
+    summary.items = summary.computed = F;
+  });
+  return summary;
+}
+
+StageSummary RunLipsyncAudio(const LipsyncAudioOptions& o, const StageContext& ctx,
+                             const io::Config& resolved) {
+  StageSummary summary{o.out, "frames", 0, 0};
+  dist::CoordinateExceptions(ctx.comm, [&] {
+    if (!ctx.comm.IsMainRank()) return;
+    std::string why;
+    if (!o.Check(&why)) throw InvalidInputError("lipsync audio: " + why);
+    const rig::Rig rig = io::ReadRigFile(o.rig);
+    std::vector<std::string> names;
+    for (const auto& shape : rig.shapes) names.push_back(shape.name);
+    if (lipsync::ShapeIndices(names, lipsync::DefaultMouthControls()).empty()) {
+      throw FileIOError(o.rig + ": the rig has none of the ARKit mouth controls (jawOpen, mouth*)");
+    }
+    const io::Audio sound = io::DecodeAudio(o.video, lipsync::kRecognizerRate);
+    lipsync::RecognizerOptions recognizer;
+    recognizer.model_dir = o.model_dir;
+    recognizer.transcript = o.transcript;
+    const std::vector<lipsync::PhoneSegment> phones = lipsync::RecognizePhones(sound.samples, recognizer);
+    const double seconds = static_cast<double>(sound.samples.size()) / sound.rate;
+    const int frames = std::max(1, static_cast<int>(std::ceil(seconds * o.fps)));
+    const Eigen::MatrixXf mouth = lipsync::MouthFromPhones(phones, names, frames, o.fps, o.dominance);
+    io::H5File f = io::H5File::CreateAtomic(o.out);
+    f.WriteStrings("/track/shape_names", names);
+    f.WriteMatrix("/track/weights", RowMatrixF(mouth));
+    f.WriteMatrix("/track/pose", RowMatrixF::Zero(frames, 3));
+    f.SetAttribute("/track/pose", "meaning", std::string("none: a mouth source has no head pose"));
+    f.WriteVector<int32_t>("/track/termination", std::vector<int32_t>(frames, 0));
+    std::vector<double> timecode(frames);
+    for (int i = 0; i < frames; ++i) timecode[i] = i / o.fps;
+    f.WriteVector<double>("/track/timecode", timecode);
+    f.SetAttribute("/track/timecode", "units", std::string("seconds from the start of the sound"));
+    f.SetAttribute("/track", "fps", o.fps);
+    f.SetAttribute("/track", "source", o.video);
+    WritePhones(&f, "/lipsync", phones, "ARPAbet (pocketsphinx)", "s, the sound's clock");
+    f.WriteProvenance(MakeProvenance(ctx, "lipsync audio", resolved));
+    f.Commit();
+    int speech = 0;
+    for (const auto& p : phones) speech += p.viseme != 0;
+    FC_INFO("lipsync audio: {} phones ({} spoken) in {:.1f} s of {}{} -> {} frames of mouth controls in {}",
+            phones.size(), speech, seconds, o.video, o.transcript.empty() ? "" : " (transcript aligned)",
+            frames, o.out);
+    summary.items = summary.computed = frames;
+  });
+  return summary;
+}
+
+StageSummary RunEvalLipsync(const EvalLipsyncOptions& o, const StageContext& ctx,
+                            const io::Config& /*resolved*/) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "files", 0, 0};
   std::string why;
   if (!o.Check(&why)) throw InvalidInputError("eval lipsync: " + why);
   LipsyncTruth truth;
@@ -454,9 +328,10 @@ void RunEvalLipsync(const StageFlags& flags, AppState* state) {
     }
     io::WriteFileAtomically(o.gaps, csv.str());
   }
+  // The JSON file at out, counted when written (out empty: the JSON was only printed).
+  const int64_t files = o.out.empty() ? 0 : 1;
+  return StageSummary{o.out, "files", files, files};
 }
-
-}  // namespace
 
 CLI::App* LipsyncSubcommand(CLI::App* app) {
   return GroupSubcommand(app, "lipsync",
@@ -472,14 +347,14 @@ void RegisterLipsync(CLI::App* app, AppState* state) {
       "track of a frontal lip video), the source aligned in time by the sound of both videos "
       "(or offset_seconds); pose and every other control stay the video's; a track file",
       PathKeys{{"track", "mouth", "video", "mouth_video"}, {{"out", OutputKind::kHdf5}}},
-      RunLipsyncBlend);
+      StageCommand(RunLipsyncBlend));
   AddStage<LipsyncAudioOptions>(
       lipsync, state, "audio", "lipsync.audio", "lipsync audio",
       "A mouth source from the video's own sound: phones recognized offline by pocketsphinx "
       "(freely, or aligned to a transcript), mapped to visemes and to the rig's ARKit mouth "
       "controls through dominance-function coarticulation; a track file for lipsync blend",
       PathKeys{{"video", "rig", "model_dir"}, {{"out", OutputKind::kHdf5}}},
-      RunLipsyncAudio);
+      StageCommand(RunLipsyncAudio));
   CLI::App* eval = EvalSubcommand(app);
   AddStage<EvalLipsyncOptions>(
       eval, state, "lipsync", "eval.lipsync", "eval lipsync",
@@ -487,7 +362,7 @@ void RegisterLipsync(CLI::App* app, AppState* state) {
       "pose error, and lip closures (the truth rig's inner lips meeting) found within a "
       "tolerance (F1), beside the neutral mouth",
       PathKeys{{"truth", "tracks"}, {{"out", OutputKind::kText}, {"gaps", OutputKind::kCsv}}},
-      RunEvalLipsync);
+      StageCommand(RunEvalLipsync));
 }
 
 }  // namespace facecap::stages

@@ -17,6 +17,8 @@
 #include <cstdlib>
 #include <mutex>
 
+#include "stages/person_stage.h"
+
 #include "assets/person_rig.h"
 #include "io/hdf5.h"
 #include "io/rig_io.h"
@@ -40,77 +42,6 @@ namespace facecap::stages {
 namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
-
-// [person.fit]
-struct PersonFitStageOptions {
-  std::string rig = "rig.h5";            // the generic rig with identity modes
-  std::string frames = "frames.h5";      // ingest output: landmarks, crops, camera
-  std::string translations = "";        // deepfake infer output of those frames ("": none)
-  std::string translations_dataset = io::frames::kTranslated;
-  std::string out = "person.h5";         // the person's rig
-  int count = 48;                        // frames chosen for pose variety
-  int size = 64;                         // target size without translations (pixels)
-  int threads = 0;                       // OpenMP threads per rank (0: cores / node ranks)
-  // Where the refinement starts: "generic" (the generic head; the landmark fit is kept as a
-  // baseline only) or "landmarks" (the landmark fit).
-  std::string refine_from = "generic";
-  // The person's own landmark vertices: each of the 68 moves to the vertex within
-  // calibrate_radius_cm whose projections best match the frames' landmarks
-  // (render::CalibrateLandmarks) at the frames' poses after the last round (the refinement's,
-  // or the landmark phase's without translations); 0: the generic rig's.
-  float calibrate_radius_cm = 1.5f;
-  track::PersonFitOptions fit;
-
-  template <class V>
-  void Visit(V&& v) {
-    v("rig", rig, "generic rig (HDF5) whose identity modes span the people (rig demo)");
-    v("frames", frames, "ingest output (frames.h5): detected landmarks, crop transforms, camera");
-    v("translations", translations,
-      "deepfake infer output of the same frames: the segmentation translations the "
-      "refinement renders against (empty: landmarks only, no refinement)");
-    v("translations_dataset", translations_dataset, "image dataset of the translations");
-    v("out", out, "the person's rig (HDF5, /rig; every --rig option takes it)");
-    v("count", count, "frames chosen for pose variety (farthest-point sampling over yaw, pitch)");
-    v("size", size, "size of the crop camera without translations (pixels)");
-    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
-    v("landmark_rounds", fit.landmark_rounds, "rounds of the fit to the landmarks");
-    v("calibrate_radius_cm", calibrate_radius_cm,
-      "after the last round, each landmark vertex moves to the vertex within this radius (cm) "
-      "that best matches the frames' landmarks at the frames' solved poses: the person's own "
-      "landmark positions, and their measured noise (0: the generic rig's, no noise)");
-    v("refine_from", refine_from,
-      "where the refinement starts: generic (the generic head; the landmark fit is kept as a "
-      "baseline, /person/landmarks_only_neutral) or landmarks (the landmark fit)");
-    v("refine_rounds", fit.refine_rounds,
-      "rounds of the refinement by inverse rendering of the translations (with translations)");
-    v("identity_prior", fit.identity_prior,
-      "weight of the prior alpha ~ N(0, 1) on the identity, in squared landmark pixels of a "
-      "128-pixel crop");
-    v("robust_px", fit.robust_px,
-      "Cauchy scale of a frame's RMS landmark residual (pixels of a 128-pixel crop): frames "
-      "whose landmarks fit badly count less");
-    v("robust_cost", fit.robust_cost,
-      "Cauchy scale of a frame's segmentation cost in the refinement, in medians over the "
-      "frames: frames whose translation fits badly count less");
-    v("refine_weight_prior", fit.refine_tracker.weight_prior,
-      "expression prior of the refinement's per-frame solves");
-  }
-  bool Check(std::string* why) const {
-    if (count < 2 || count > 100000) { *why = "count must be in [2, 100000]"; return false; }
-    if (size < 16 || size > 1024) { *why = "size must be in [16, 1024]"; return false; }
-    if (threads < 0) { *why = "threads must be >= 0"; return false; }
-    if (out.empty()) { *why = "out must name a file"; return false; }
-    if (!(calibrate_radius_cm >= 0.f && calibrate_radius_cm <= 5.f)) {
-      *why = "calibrate_radius_cm must be in [0, 5]";
-      return false;
-    }
-    if (refine_from != "generic" && refine_from != "landmarks") {
-      *why = "refine_from must be generic or landmarks, not " + refine_from;
-      return false;
-    }
-    return fit.Check(why);
-  }
-};
 
 // Farthest-point sampling of `count` of the points (yaw, pitch in degrees), starting from the
 // one nearest to frontal; ties go to the lower index. Returns ascending indices.
@@ -644,10 +575,10 @@ void WritePersonRig(const PersonFitSetup& setup, const PersonFitState& state,
   });
 }
 
-void RunPersonFit(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<PersonFitStageOptions>(flags, &ctx, &resolved);
+}  // namespace
+
+StageSummary RunPersonFit(const PersonFitStageOptions& o, const StageContext& ctx,
+                          const io::Config& resolved) {
   const dist::Comm& comm = ctx.comm;
 
   const PersonFitInputs in = ReadPersonFitInputs(comm, o);
@@ -671,20 +602,21 @@ void RunPersonFit(const StageFlags& flags, AppState* state) {
   // Output (rank 0): new, continued, or up to date.
   ResumableOutput output;
   PersonFitState fit_state;
-  if (!OpenOutput(setup, ctx, resolved, &output, &fit_state)) return;
+  StageSummary summary{o.out, "rounds", setup.rounds, 0};
+  if (!OpenOutput(setup, ctx, resolved, &output, &fit_state)) return summary;
   if (fit_state.chosen.empty()) ChooseFrames(setup, with_face, &targets, &fit_state);
 
   // Rounds.
   for (int64_t round = fit_state.rounds_done; round < setup.rounds; ++round) {
     RunRound(setup, round, &targets, &output, &fit_state);
+    ++summary.computed;
   }
   if (o.fit.landmark_rounds == 0) fit_state.landmarks_only.setZero();
 
   // The person's rig: identity applied, shapes moved by deformation transfer.
   WritePersonRig(setup, fit_state, &output);
+  return summary;
 }
-
-}  // namespace
 
 void RegisterPerson(CLI::App* app, AppState* state) {
   CLI::App* person = app->add_subcommand("person", "The person's own rig from their footage");
@@ -698,7 +630,7 @@ void RegisterPerson(CLI::App* app, AppState* state) {
       "rig's shapes moved onto the person by deformation transfer. Frames spread across "
       "ranks, the same result for any rank count, resumable",
       PathKeys{{"rig", "frames", "translations"}, {{"out", OutputKind::kHdf5}}},
-      RunPersonFit);
+      StageCommand(RunPersonFit));
 }
 
 }  // namespace facecap::stages

@@ -112,6 +112,19 @@ struct AppState {
   std::vector<std::string> job_tables = {"run"};
 };
 
+// The command-line callback of a stage's Run(options, context, resolved): the options
+// resolved from the defaults, the job file, --set and the flags, then the stage run.
+template <typename Options, typename Summary>
+std::function<void(const StageFlags&, AppState*)> StageCommand(
+    Summary (*run)(const Options&, const StageContext&, const io::Config&)) {
+  return [run](const StageFlags& flags, AppState* state) {
+    StageContext ctx{state->comm, {}, state->command_line};
+    io::Config resolved;
+    const Options options = ResolveStageOptions<Options>(flags, &ctx, &resolved);
+    run(options, ctx, resolved);
+  };
+}
+
 // Adds a subcommand for a stage whose options are `Options` (table `table`), runnable by
 // `facecap run`: flags from the options, --job and --set, and the callback. `paths` names the
 // options that are the stage's input and output files: they are checked (CheckStagePaths)

@@ -9,6 +9,8 @@
 #include <cmath>
 #include <memory>
 
+#include "stages/rig_calibrate_stage.h"
+
 #include "face/face_analyzer.h"
 #include "io/hdf5.h"
 #include "io/rig_io.h"
@@ -25,53 +27,6 @@
 
 namespace facecap::stages {
 namespace {
-
-// [rig.calibrate]
-struct RigCalibrateOptions {
-  std::string rig = "rig.h5";          // the rig whose landmarks are placed
-  std::string out = "rig_calibrated.h5";
-  int people = 8;                      // identities rendered
-  int first_identity_seed = 9001;      // their seeds: first_identity_seed, +1, ...
-  int frames = 24;                     // frames per person
-  int size = 192;                      // render size (pixels)
-  float fov_deg = 40.f;                // vertical field of view of the renders' camera
-  float fill = 0.5f;                   // fraction of the frame height the face spans
-  float max_yaw_deg = 25.f;            // head yaw range of the renders
-  float radius_cm = 2.5f;              // search radius around each landmark vertex
-  std::string landmark_model = face::kDefaultLandmarkModel;
-  int threads = 0;
-
-  template <class V>
-  void Visit(V&& v) {
-    v("rig", rig, "rig file (HDF5) with identity modes and 68 landmarks");
-    v("out", out, "the rig with its landmark vertices placed (HDF5)");
-    v("people", people, "people (identities of the rig's modes) rendered");
-    v("first_identity_seed", first_identity_seed,
-      "identity seed of the first person; the others follow (keep them apart from the seeds "
-      "of clips that are evaluated)");
-    v("frames", frames, "frames rendered per person");
-    v("size", size, "render size in pixels");
-    v("fov_deg", fov_deg, "vertical field of view of the renders' camera (degrees): the one "
-                          "ingest assumes for footage, so that perspective matches");
-    v("fill", fill, "fraction of the frame height the face spans when frontal");
-    v("max_yaw_deg", max_yaw_deg, "largest head yaw of the renders (degrees)");
-    v("radius_cm", radius_cm, "each landmark moves to a vertex at most this far (cm)");
-    v("landmark_model", landmark_model, "dlib 68-point shape predictor (Debian libdlib-data)");
-    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
-  }
-  bool Check(std::string* why) const {
-    if (people < 1 || people > 1000) { *why = "people must be in [1, 1000]"; return false; }
-    if (frames < 1 || frames > 10000) { *why = "frames must be in [1, 10000]"; return false; }
-    if (size < 96 || size > 1024) { *why = "size must be in [96, 1024]"; return false; }
-    if (!(max_yaw_deg >= 0.f && max_yaw_deg <= 60.f)) { *why = "max_yaw_deg must be in [0, 60]"; return false; }
-    if (!(radius_cm > 0.f && radius_cm <= 10.f)) { *why = "radius_cm must be in (0, 10]"; return false; }
-    if (!(fov_deg > 5.f && fov_deg < 120.f)) { *why = "fov_deg must be in (5, 120)"; return false; }
-    if (!(fill > 0.1f && fill <= 1.f)) { *why = "fill must be in (0.1, 1]"; return false; }
-    if (threads < 0) { *why = "threads must be >= 0"; return false; }
-    if (out.empty()) { *why = "out must name a file"; return false; }
-    return true;
-  }
-};
 
 // The wild clip of person p: poses and expressions as a clip, yaw within the range.
 synth::ClipOptions CalibrationClip(const RigCalibrateOptions& o, int person) {
@@ -90,10 +45,10 @@ synth::ClipOptions CalibrationClip(const RigCalibrateOptions& o, int person) {
   return c;
 }
 
-void RunRigCalibrate(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<RigCalibrateOptions>(flags, &ctx, &resolved);
+}  // namespace
+
+StageSummary RunRigCalibrate(const RigCalibrateOptions& o, const StageContext& ctx,
+                             const io::Config& resolved) {
   const dist::Comm& comm = ctx.comm;
   rig::Rig rig;
   std::vector<rig::Rig> people;
@@ -207,9 +162,9 @@ void RunRigCalibrate(const StageFlags& flags, AppState* state) {
     file.Commit();
     FC_INFO("rig calibrate: -> {}", o.out);
   });
+  // Every view is rendered and detected by every run (the stage does not resume).
+  return StageSummary{o.out, "views", views, views};
 }
-
-}  // namespace
 
 void RegisterRigCalibrate(CLI::App* rig, AppState* state) {
   AddStage<RigCalibrateOptions>(
@@ -218,7 +173,7 @@ void RegisterRigCalibrate(CLI::App* rig, AppState* state) {
       "renders of people made of the rig (poses, expressions, lighting), so that fits to dlib's "
       "landmarks on footage measure the face, not the difference of conventions",
       PathKeys{{"rig", "landmark_model"}, {{"out", OutputKind::kHdf5}}},
-      RunRigCalibrate);
+      StageCommand(RunRigCalibrate));
 }
 
 }  // namespace facecap::stages

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "stages/sample_set_stage.h"
+
 #include "io/image_io.h"
 #include "nn/augment.h"
 #include "render/contact_sheet.h"
@@ -19,57 +21,6 @@
 
 namespace facecap::stages {
 namespace {
-
-// [synth.contract]
-struct SynthContractOptions {
-  std::string samples = "samples.h5";              // the random samples
-  std::string sample_codes = "samples_codes.h5";   // deepfake infer of the samples
-  std::string frame_codes = "translated.h5";       // deepfake infer of the footage crops
-  std::string frames = "";                         // the footage crops, for the sheet
-  std::string out = "contracted.h5";               // output file
-  std::string sheet = "";                          // PNG ("": beside out; "none": no sheet)
-  int neighbors = 5;                               // k of the mean k-nearest distance
-  double remove_fraction = 0.2;                    // samples removed (without bound)
-  std::string bound = "";                          // an earlier contraction's output
-  int sheet_rows = 6;                              // samples per side of the sheet
-
-  template <class V>
-  void Visit(V&& v) {
-    v("samples", samples, "samples file (synth samples, or a set synth expand made)");
-    v("sample_codes", sample_codes,
-      "deepfake infer's output on the samples (--dataset /samples/segmentation): their codes "
-      "E(I) in /frames/latent");
-    v("frame_codes", frame_codes,
-      "deepfake infer's output on the footage crops, from the same model: their translations' "
-      "codes E(D_A(E(I))) in /frames/latent_of_translation");
-    v("frames", frames,
-      "the footage crops (ingest's output) shown on the sheet beside each sample (empty: their "
-      "translations from frame_codes)");
-    v("out", out, "output file (HDF5): the kept samples, their codes, every sample's score");
-    v("sheet", sheet,
-      "contact sheet PNG: the most and least in-distribution samples, each beside its nearest "
-      "real frame, kept ones framed green and removed ones red (default: beside out; none: no "
-      "sheet)");
-    v("neighbors", neighbors,
-      "k: a sample's score is the mean distance from its code to the k nearest real frames' codes");
-    v("remove_fraction", remove_fraction,
-      "fraction of the samples removed, those of the highest scores (unless bound is given)");
-    v("bound", bound,
-      "an earlier synth contract output: remove the samples scoring above its bound "
-      "(/contraction@threshold) instead of remove_fraction, e.g. to check an expanded set's new "
-      "samples against the first contraction (codes from the same deepfake)");
-    v("sheet_rows", sheet_rows, "rows of the sheet");
-  }
-  bool Check(std::string* why) const {
-    if (neighbors < 1) { *why = "neighbors must be at least 1"; return false; }
-    if (!(remove_fraction >= 0 && remove_fraction < 1)) {
-      *why = "remove_fraction must be in [0, 1)";
-      return false;
-    }
-    if (sheet_rows < 1) { *why = "sheet_rows must be at least 1"; return false; }
-    return true;
-  }
-};
 
 // Square image `index` of `dataset` at `size` x `size` (bilinear).
 Image8 ReadTile(const io::H5File& f, const std::string& dataset, int64_t index, int size) {
@@ -97,11 +48,12 @@ void FrameTile(Image8* tile, const uint8_t rgb[3]) {
   }
 }
 
-void RunSynthContract(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<SynthContractOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;  // seconds of work for thousands of samples: rank 0 alone
+}  // namespace
+
+StageSummary RunSynthContract(const SynthContractOptions& o, const StageContext& ctx,
+                              const io::Config& resolved) {
+  // Seconds of work for thousands of samples: rank 0 alone.
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "samples", 0, 0};
   const io::H5File samples = io::H5File::OpenRead(o.samples);
   const std::string sampling_config = SamplingConfig(samples);
   const io::Shape seg = samples.CheckShape("/samples/segmentation", {-1, -1, -1, 3});
@@ -210,7 +162,8 @@ void RunSynthContract(const StageFlags& flags, AppState* state) {
           "{} nearest of {} real frames), {} kept -> {}",
           n - m, n, threshold, o.neighbors, real_rows.size(), m, o.out);
 
-  if (!sheet) return;
+  const StageSummary summary{o.out, "samples", m, m};  // the kept samples, written by every run
+  if (!sheet) return summary;
   // The sheet: per row, the i-th most in-distribution sample and its nearest real frame, then
   // the i-th least in-distribution one and its nearest real frame.
   std::vector<int64_t> order(n);
@@ -236,9 +189,8 @@ void RunSynthContract(const StageFlags& flags, AppState* state) {
   FC_INFO("synth contract: sheet -> {} (left: the most in-distribution samples, right: the least; "
           "each beside its nearest real frame; green kept, red removed)",
           sheet_path);
+  return summary;
 }
-
-}  // namespace
 
 void RegisterSynthContract(CLI::App* synth, AppState* state) {
   AddStage<SynthContractOptions>(
@@ -249,7 +201,7 @@ void RegisterSynthContract(CLI::App* synth, AppState* state) {
       "and least in-distribution samples beside their nearest real frames",
       PathKeys{{"samples", "sample_codes", "frame_codes", "frames", "bound"},
                {{"out", OutputKind::kHdf5}}},
-      RunSynthContract);
+      StageCommand(RunSynthContract));
 }
 
 }  // namespace facecap::stages

@@ -27,6 +27,8 @@
 #include <memory>
 #include <sstream>
 
+#include "stages/scans_stage.h"
+
 #include "assets/geometry_image.h"
 #include "assets/scan_database.h"
 #include "assets/template_shapes.h"
@@ -47,84 +49,6 @@
 
 namespace facecap::stages {
 namespace {
-
-// [scans.synth]
-struct ScansSynthOptions {
-  std::string out = "scans.h5";          // output scan database
-  int people = 60;                       // number of people
-  int test_people = 12;                  // the last test_people are held out
-  int head_resolution = 60;              // demo head grid resolution (vertex count)
-  std::vector<std::string> facs = assets::DefaultFacsTable();  // FACS table name=shape+shape
-  int texture_size = 128;                // skin maps' width and height (0: meshes only)
-  int threads = 0;                       // threads (0: the cores divided among the node's ranks)
-  assets::ScanSynthOptions synth;        // personal shapes and capture noise
-
-  template <class V>
-  void Visit(V&& v) {
-    v("out", out, "output scan database (HDF5)");
-    v("people", people, "number of people");
-    v("test_people", test_people, "the last test_people people are held out for evaluation");
-    v("head_resolution", head_resolution, "demo head grid resolution ([60, 300]; 100 is about 9,000 vertices)");
-    v("facs", facs, "FACS table: one 'name=shapeA+shapeB' entry per expression, covering every template shape");
-    v("texture_size", texture_size, "width and height of the skin maps (albedo, specular, displacement) of every "
-                                    "neutral and expression, [32, 2048]; 0 writes meshes only");
-    v("threads", threads, "threads (0: the cores divided among the node's ranks)");
-    synth.Visit(v);
-  }
-  bool Check(std::string* why) const {
-    if (out.empty()) { *why = "out must name a file"; return false; }
-    if (people < 2) { *why = "people must be >= 2"; return false; }
-    if (test_people < 1 || test_people >= people) { *why = "test_people must be in [1, people)"; return false; }
-    if (head_resolution < 60 || head_resolution > 300) { *why = "head_resolution must be in [60, 300]"; return false; }
-    if (facs.empty()) { *why = "the FACS table is empty"; return false; }
-    if (threads < 0) { *why = "threads must be >= 0"; return false; }
-    if (texture_size != 0 && (texture_size < 32 || texture_size > 2048)) {
-      *why = "texture_size must be 0 or in [32, 2048]";
-      return false;
-    }
-    return synth.Check(why);
-  }
-};
-
-// [scans.import]
-struct ScansImportOptions {
-  std::string labels = "labels.csv";  // CSV: person,expression,file,split (file relative to the CSV)
-  std::string template_rig = "template.h5";  // rig file whose shapes are the template S_i
-  std::vector<std::string> facs = assets::DefaultFacsTable();  // FACS table of the expressions
-  std::string out = "scans.h5";       // output scan database
-  int texture_size = 256;             // skin maps resampled to this size (0: meshes only)
-  float displacement_scale_mm = 1.f;  // mm per unit of the displacement maps
-
-  template <class V>
-  void Visit(V&& v) {
-    v("labels", labels, "labels CSV: person,expression,file,split; expression 'neutral' is the neutral, "
-                        "split is train or test; files are OBJ meshes of the template's topology");
-    v("template_rig", template_rig, "rig file (HDF5) whose shapes are the template blendshapes");
-    v("facs", facs, "FACS table: one 'name=shapeA+shapeB' entry per expression");
-    v("out", out, "output scan database (HDF5)");
-    v("texture_size", texture_size, "skin maps found beside the meshes (MESH_albedo, MESH_specular, MESH_displacement "
-                                    "with extension exr, tif, tiff, png or jpg, in the template's UV layout; albedo in sRGB unless float, "
-                                    "specular and displacement from their first channel, displacement as floats) are "
-                                    "resampled to this width and height, [32, 4096]; 0 imports meshes only");
-    v("displacement_scale_mm", displacement_scale_mm, "millimetres per unit of the displacement maps (float EXR or TIFF)");
-  }
-  bool Check(std::string* why) const {
-    if (labels.empty() || template_rig.empty() || out.empty()) {
-      *why = "labels, template_rig and out must name files";
-      return false;
-    }
-    if (facs.empty()) { *why = "the FACS table is empty"; return false; }
-    if (texture_size != 0 && (texture_size < 32 || texture_size > 4096)) {
-      *why = "texture_size must be 0 or in [32, 4096]";
-      return false;
-    }
-    if (!(displacement_scale_mm > 0.f && displacement_scale_mm < 1e4f)) {
-      *why = "displacement_scale_mm must be in (0, 1e4)";
-      return false;
-    }
-    return true;
-  }
-};
 
 void WriteDatabaseHeader(io::H5File* f, const assets::LinearShapes& tmpl, const rig::Rig& topology,
                          const std::vector<assets::FacsExpression>& table, const Eigen::MatrixXf& alpha,
@@ -192,10 +116,10 @@ void CreateSkinMapDatasets(io::H5File* f, int P, int K, int S, const std::string
   }
 }
 
-void RunScansSynth(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<ScansSynthOptions>(flags, &ctx, &resolved);
+}  // namespace
+
+StageSummary RunScansSynth(const ScansSynthOptions& o, const StageContext& ctx,
+                           const io::Config& resolved) {
   const dist::Comm& comm = ctx.comm;
   std::vector<assets::FacsExpression> table;
   Eigen::MatrixXf alpha;
@@ -221,7 +145,7 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
   comm.Broadcast(&up_to_date, sizeof(up_to_date));
   if (up_to_date) {
     if (comm.IsMainRank()) FC_INFO("scans synth: {} is up to date", o.out);
-    return;
+    return StageSummary{o.out, "people", o.people, 0};
   }
   const int P = o.people, V = tmpl.NumVertices(), N = tmpl.NumShapes(), K = static_cast<int>(alpha.rows());
   const dist::Range mine = dist::BlockRange(P, comm.rank(), comm.size());
@@ -311,7 +235,10 @@ void RunScansSynth(const StageFlags& flags, AppState* state) {
     FC_INFO("scans synth: {} people ({} held out) x {} expressions, {} shapes, {} vertices -> {}", P,
             o.test_people, K, N, V, o.out);
   });
+  return StageSummary{o.out, "people", P, P};
 }
+
+namespace {
 
 // The map of `layer` beside mesh file `mesh` (MESH_layer.ext), or "" when there is none.
 std::string MapBeside(const std::string& mesh, const std::string& layer) {
@@ -378,10 +305,11 @@ std::vector<float> ReadSkinMaps(const std::string& mesh, const MapLayers& layers
   return maps;
 }
 
-void RunScansImport(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<ScansImportOptions>(flags, &ctx, &resolved);
+}  // namespace
+
+StageSummary RunScansImport(const ScansImportOptions& o, const StageContext& ctx,
+                            const io::Config& resolved) {
+  StageSummary summary{o.out, "people", 0, 0};  // rank 0 fills it in
   dist::CoordinateExceptions(ctx.comm, [&] {
     if (!ctx.comm.IsMainRank()) return;
     const rig::Rig topology = io::ReadRigFile(o.template_rig);
@@ -429,6 +357,7 @@ void RunScansImport(const StageFlags& flags, AppState* state) {
     }
     const int S = layers.any() ? o.texture_size : 0;
     ResumableOutput output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "scans import", resolved));
+    summary.items = P;
     if (output.up_to_date) return;
     io::H5File& f = output.file;
     WriteDatabaseHeader(&f, tmpl, topology, table, alpha, P);
@@ -467,15 +396,15 @@ void RunScansImport(const StageFlags& flags, AppState* state) {
     f.WriteVector<int32_t>("/scans/people/split", split);
     f.WriteStrings("/scans/people/names", order);
     f.Commit();
+    summary.computed = P;
     if (S > 0) {
       FC_INFO("scans import: {} people x {} expressions, skin maps ({}) at {}x{} -> {}", P, K, layers.Names(), S, S, o.out);
     } else {
       FC_INFO("scans import: {} people x {} expressions -> {}", P, K, o.out);
     }
   });
+  return summary;
 }
-
-}  // namespace
 
 void RegisterScans(CLI::App* app, AppState* state) {
   CLI::App* scans = app->add_subcommand("scans", "Scan databases of people and FACS expressions");
@@ -486,13 +415,13 @@ void RegisterScans(CLI::App* app, AppState* state) {
       "that depend on identity, FACS expression scans with unwanted motion and noise; the true "
       "personal shapes are stored for evaluation",
       PathKeys{{}, {{"out", OutputKind::kHdf5}}},
-      RunScansSynth);
+      StageCommand(RunScansSynth));
   AddStage<ScansImportOptions>(
       scans, state, "import", "scans.import", "scans import",
       "Registered OBJ scans (one per person and expression, listed in a labels CSV) into the scan "
       "database layout",
       PathKeys{{"labels", "template_rig"}, {{"out", OutputKind::kHdf5}}},
-      RunScansImport);
+      StageCommand(RunScansImport));
 }
 
 }  // namespace facecap::stages

@@ -3,6 +3,7 @@
 #ifndef FACECAP_STAGES_STAGE_H_
 #define FACECAP_STAGES_STAGE_H_
 
+#include <cstdint>
 #include <string>
 
 #include "dist/comm.h"
@@ -17,6 +18,37 @@ struct StageContext {
   io::Config config;          // job file + --set + flags
   std::string command_line;   // as typed, for provenance
 };
+
+// What a stage's Run returns: the output it wrote or found complete, how many items (frames,
+// samples, steps, files: `unit`) the output holds, and how many of them this run computed
+// (0 when the output was already up to date).
+struct StageSummary {
+  std::string out;
+  std::string unit;
+  int64_t items = 0;
+  int64_t computed = 0;
+  std::string Line() const;  // "OUT: 40 frames (12 computed by this run)"
+};
+
+// The options of table `table` as an output's provenance stores them: the `resolved` argument
+// of a stage's Run when it is called in-process (the command line resolves it from the job
+// file, --set and the flags).
+template <class Options>
+io::Config StoredOptions(const Options& options, const std::string& table) {
+  io::Config resolved;
+  io::StoreOptions(options, table, &resolved);
+  return resolved;
+}
+
+// Runs a stage in this process on one rank without MPI (tests, tools): `run` is the stage's
+// Run, its options stored in the output under `table` as the command line would store them.
+template <class Options, class Summary>
+Summary RunInProcess(Summary (*run)(const Options&, const StageContext&, const io::Config&),
+                     const Options& options, const std::string& table) {
+  StageContext ctx;
+  ctx.command_line = "facecap " + table + " (in-process)";
+  return run(options, ctx, StoredOptions(options, table));
+}
 
 // Provenance for an output of `stage` whose resolved options are `resolved`.
 io::Provenance MakeProvenance(const StageContext& ctx, const std::string& stage,

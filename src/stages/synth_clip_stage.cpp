@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <memory>
 
+#include "stages/synth_clip_stage.h"
+
 #include "io/audio.h"
 #include "io/image_io.h"
 #include "io/rig_io.h"
@@ -42,68 +44,6 @@ std::string VideoPath(const std::string& out) {
 std::string WavPath(const std::string& out) {
   return std::filesystem::path(out).replace_extension(".wav").string();
 }
-
-// [synth.clip]
-struct SynthClipOptions {
-  std::string rig = "rig.h5";        // rig file (the mean person; identity_seed personalizes it)
-  std::string out = "clip.h5";       // output file
-  bool video = false;                // also write the frames to an mp4 beside `out`
-  std::string background_folder;     // photos for the background ("": procedural backgrounds)
-  int batch = 8;                     // frames per rank per round (a checkpoint per round)
-  int threads = 0;                   // OpenMP threads per rank (0: cores / ranks on the node)
-  std::string speech;                // text the person speaks ("": no speech)
-  std::string voice = "en";          // espeak-ng voice of the speech
-  float speech_start_seconds = 0.5f; // when the speech starts in the clip
-  bool lips_view = false;            // the frontal lip-sync view of the performance
-  synth::ClipOptions clip;           // the performance, appearance and camera
-
-  // --help's sections, by the first key of each.
-  static std::vector<std::pair<std::string, std::string>> HelpSections() {
-    return {{"rig", "Input and output"}, {"speech", "Speech"}, {"frames", "Clip"},
-            {"identity_seed", "Person and seeds"}, {"expressions.expression_seconds", "Expressions"},
-            {"head_motion.pose_seconds", "Head motion"}, {"lighting.light_period_seconds", "Lighting"},
-            {"skin.texture_size", "Skin texture"}, {"camera.exposure_min", "Camera degradations"}};
-  }
-  template <class V>
-  void Visit(V&& v) {
-    v("rig", rig, "rig file (HDF5); identity_seed makes a person of it");
-    v("out", out, "output file (HDF5)");
-    v("video", video, "also write the wild frames to an mp4 next to out (same name, .mp4)");
-    v("background_folder", background_folder,
-      "folder of photos (png, jpg, ...) for backgrounds, one picked by background_seed; "
-      "empty: procedural backgrounds");
-    v("batch", batch, "frames per rank per round; each round is a checkpoint");
-    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
-    v("speech", speech,
-      "text the person speaks (espeak-ng): the mouth controls follow the phones by the "
-      "person's own coarticulation, the phones and audio are kept as truth, and the mp4 "
-      "carries the sound (also written as a WAV beside out); empty: no speech");
-    v("voice", voice, "espeak-ng voice of the speech (en, en-us, en+f3, ...; espeak-ng --voices)");
-    v("speech_start_seconds", speech_start_seconds, "time in the clip at which the speech starts");
-    v("lips_view", lips_view,
-      "film the frontal view a lip-sync source gives: the head frontal and still, every "
-      "control outside the mouth at the neutral, the same speech");
-    clip.Visit(v);
-  }
-  void DerivedOutputs(std::vector<NamedPath>* outputs) const {
-    if (video) {
-      outputs->push_back({"video (out with .mp4)",
-                          std::filesystem::path(out).replace_extension(".mp4").string(),
-                          OutputKind::kVideo});
-    }
-    if (!speech.empty()) {
-      outputs->push_back({"speech audio (out with .wav)", WavPath(out), OutputKind::kAudio});
-    }
-  }
-  bool Check(std::string* why) const {
-    if (batch <= 0) { *why = "batch must be positive"; return false; }
-    if (threads < 0) { *why = "threads must be >= 0"; return false; }
-    if (out.empty()) { *why = "out must name a file"; return false; }
-    if (speech_start_seconds < 0.f) { *why = "speech_start_seconds must be >= 0"; return false; }
-    if (lips_view && speech.empty()) { *why = "lips_view needs a speech"; return false; }
-    return clip.Check(why);
-  }
-};
 
 // The photo for the background: the folder's image files sorted by name, one picked by seed.
 Image8 BackgroundPhoto(const std::string& folder, int background_seed) {
@@ -196,9 +136,10 @@ class SynthClipRun {
   SynthClipRun(const SynthClipOptions& o, const StageContext& ctx, const io::Config& resolved)
       : o_(o), co_(o.clip), ctx_(ctx), resolved_(resolved), comm_(ctx.comm) {}
 
-  void Run() {
+  StageSummary Run() {
     BuildPerson();
     S_ = person_.NumShapes();
+    StageSummary summary{o_.out, "frames", co_.frames, 0};
     if (!OpenOutput()) {
       const int threads = ThreadsPerRank(o_.threads);
       workers_ = std::vector<ClipThread>(threads);
@@ -206,7 +147,7 @@ class SynthClipRun {
       loop.what = "synth clip";
       loop.batch = o_.batch;
       loop.threads = threads;
-      RunFrameLoopAndCommit(
+      summary.computed = RunFrameLoopAndCommit(
           comm_, pending_, co_.frames, loop,
           [&](int64_t index, int thread) { return RenderFrame(index, thread); },
           [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
@@ -217,6 +158,7 @@ class SynthClipRun {
     }
     if (!o_.speech.empty()) WriteSound();
     if (o_.video) WriteVideo();
+    return summary;
   }
 
  private:
@@ -416,45 +358,27 @@ class SynthClipRun {
   std::vector<ClipThread> workers_;
 };
 
-void RunSynthClip(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<SynthClipOptions>(flags, &ctx, &resolved);
-  SynthClipRun(o, ctx, resolved).Run();
+}  // namespace
+
+void SynthClipOptions::DerivedOutputs(std::vector<NamedPath>* outputs) const {
+  if (video) {
+    outputs->push_back({"video (out with .mp4)",
+                        std::filesystem::path(out).replace_extension(".mp4").string(),
+                        OutputKind::kVideo});
+  }
+  if (!speech.empty()) {
+    outputs->push_back({"speech audio (out with .wav)", WavPath(out), OutputKind::kAudio});
+  }
 }
 
-// [synth.sheet]
-struct SynthSheetOptions {
-  std::string clip = "clip.h5";        // clip file made by synth clip
-  std::string out = "clip_sheet.png";  // contact sheet image
-  int frames = 12;                     // frames shown, evenly spaced over the clip
-  int pairs_per_row = 4;               // (wild, segmentation) pairs per row
-  int scale = 2;                       // nearest-neighbour magnification of each tile
-  bool landmarks = true;               // mark the visible true landmarks on the segmentation
+StageSummary RunSynthClip(const SynthClipOptions& o, const StageContext& ctx,
+                          const io::Config& resolved) {
+  return SynthClipRun(o, ctx, resolved).Run();
+}
 
-  template <class V>
-  void Visit(V&& v) {
-    v("clip", clip, "clip file (HDF5) made by synth clip");
-    v("out", out, "contact sheet image (png, jpg, ...)");
-    v("frames", frames, "frames shown, evenly spaced over the clip");
-    v("pairs_per_row", pairs_per_row, "(wild frame, segmentation) pairs per row");
-    v("scale", scale, "nearest-neighbour magnification of each tile");
-    v("landmarks", landmarks, "mark the visible true landmarks on the segmentation tiles");
-  }
-  bool Check(std::string* why) const {
-    if (frames <= 0) { *why = "frames must be positive, got " + std::to_string(frames); return false; }
-    if (pairs_per_row <= 0) { *why = "pairs_per_row must be positive"; return false; }
-    if (scale < 1 || scale > 16) { *why = "scale must be in [1, 16]"; return false; }
-    if (out.empty()) { *why = "out must name a file"; return false; }
-    return true;
-  }
-};
-
-void RunSynthSheet(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<SynthSheetOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+StageSummary RunSynthSheet(const SynthSheetOptions& o, const StageContext& ctx,
+                           const io::Config& /*resolved*/) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "files", 0, 0};
   io::H5File f = io::H5File::OpenRead(o.clip);
   for (const char* name : {io::frames::kImage, io::frames::kSegmentation, io::frames::kLandmarks,
                            io::frames::kLandmarkVisible}) {
@@ -498,9 +422,8 @@ void RunSynthSheet(const StageFlags& flags, AppState* state) {
   sheet.border = 2;
   io::WriteImage(o.out, render::ContactSheet(tiles, sheet));
   FC_INFO("synth sheet: {} frames of {} (wild | segmentation) -> {}", shown, o.clip, o.out);
+  return StageSummary{o.out, "files", 1, 1};
 }
-
-}  // namespace
 
 void RegisterSynthClip(CLI::App* synth, AppState* state) {
   AddStage<SynthClipOptions>(
@@ -510,13 +433,13 @@ void RegisterSynthClip(CLI::App* synth, AppState* state) {
       "and JPEG, with the true pose, weights, landmarks and segmentation of every frame; "
       "spread across ranks, identical for any rank count, resumable; --video adds an mp4",
       PathKeys{{"rig", "background_folder"}, {{"out", OutputKind::kHdf5}}},
-      RunSynthClip);
+      StageCommand(RunSynthClip));
   AddStage<SynthSheetOptions>(
       synth, state, "sheet", "synth.sheet", "synth sheet",
       "Contact sheet of a clip's wild frames, each beside the segmentation render of the same "
       "frame (with its visible true landmarks)",
       PathKeys{{"clip"}, {{"out", OutputKind::kImage}}},
-      RunSynthSheet);
+      StageCommand(RunSynthSheet));
 }
 
 }  // namespace facecap::stages

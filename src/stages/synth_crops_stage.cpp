@@ -9,6 +9,8 @@
 
 #include <Eigen/LU>
 
+#include "stages/synth_crops_stage.h"
+
 #include "io/hdf5.h"
 #include "stages/cli.h"
 #include "io/frames_file.h"
@@ -20,28 +22,6 @@
 
 namespace facecap::stages {
 namespace {
-
-// [synth.crops]
-struct SynthCropsOptions {
-  std::string clip = "clip.h5";        // synth clip output (its segmentation and regions)
-  std::string frames = "frames.h5";    // ingest output of the clip's video
-  std::string out = "crops.h5";
-
-  template <class V>
-  void Visit(V&& v) {
-    v("clip", clip, "synth clip output (HDF5) with /frames/segmentation and /regions");
-    v("frames", frames, "ingest output of that clip's video (its crops and crop transforms)");
-    v("out", out, "output (HDF5): /frames/image (the crops), /frames/segmentation (warped), "
-                  "/frames/found, /regions");
-  }
-  bool Check(std::string* why) const {
-    if (clip.empty() || frames.empty() || out.empty()) {
-      *why = "clip, frames and out are required";
-      return false;
-    }
-    return true;
-  }
-};
 
 // The segmentation seen through a crop transform (source -> crop pixels, pixel centres at
 // integers), nearest neighbour, black outside the source.
@@ -67,11 +47,11 @@ void WarpNearest(const uint8_t* source, int width, int height, const float* tran
   }
 }
 
-void RunSynthCrops(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<SynthCropsOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+}  // namespace
+
+StageSummary RunSynthCrops(const SynthCropsOptions& o, const StageContext& ctx,
+                           const io::Config& resolved) {
+  if (!ctx.comm.IsMainRank()) return StageSummary{o.out, "frames", 0, 0};
   std::string why;
   if (!o.Check(&why)) throw InvalidInputError("synth crops: " + why);
   io::H5File clip = io::H5File::OpenRead(o.clip);
@@ -148,9 +128,8 @@ void RunSynthCrops(const StageFlags& flags, AppState* state) {
   f.Commit();
   FC_INFO("synth crops: {} frames ({} with a face) -> {}", n,
           std::count(found.begin(), found.end(), uint8_t{1}), o.out);
+  return StageSummary{o.out, "frames", n, n};
 }
-
-}  // namespace
 
 void RegisterSynthCrops(CLI::App* synth, AppState* state) {
   AddStage<SynthCropsOptions>(
@@ -159,7 +138,7 @@ void RegisterSynthCrops(CLI::App* synth, AppState* state) {
       "warped by the same crop transforms, with the regions (paired deepfake examples in the "
       "framing of real crops; the true segmentation of a clip's crops for oracle solves)",
       PathKeys{{"clip", "frames"}, {{"out", OutputKind::kHdf5}}},
-      RunSynthCrops);
+      StageCommand(RunSynthCrops));
 }
 
 }  // namespace facecap::stages

@@ -4,6 +4,8 @@
 #include <memory>
 #include <mutex>
 
+#include "stages/synth_stage.h"
+
 #include "face/align.h"
 #include "io/rig_io.h"
 #include "render/camera.h"
@@ -26,49 +28,6 @@
 
 namespace facecap::stages {
 namespace {
-
-// [synth.samples]
-struct SynthSamplesOptions {
-  std::string rig = "rig.h5";        // rig file
-  std::string out = "samples.h5";    // output file
-  int batch = 32;                    // samples per rank per round (a checkpoint per round)
-  int threads = 0;                   // OpenMP threads per rank (0: cores / ranks on the node)
-  // Framing: "centered" (the head framed on the optical axis, fill of the image) or "crop"
-  // (each sample framed as ingest crops footage: the head filmed by a camera of fov_deg at
-  // fill, then the similarity-aligned crop of its 68 landmarks with crop_padding and
-  // crop_raise, rendered directly through the crop's camera).
-  std::string framing = "centered";
-  double crop_padding = 0.4;
-  double crop_raise = 0.04;
-  synth::SampleOptions sample;       // the sampling and rendering options
-
-  template <class V>
-  void Visit(V&& v) {
-    v("rig", rig, "rig file (HDF5)");
-    v("out", out, "output file (HDF5)");
-    v("batch", batch, "samples per rank per round; each round is a checkpoint");
-    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
-    v("framing", framing,
-      "centered: the head on the optical axis filling `fill` of the image; crop: framed as "
-      "ingest crops footage (the aligned crop of the 68 landmarks, crop_padding, crop_raise), "
-      "so that the samples look like the crops a deepfake translates; each sample's camera in "
-      "/samples/camera");
-    v("crop_padding", crop_padding, "framing = crop: ingest's crop_padding");
-    v("crop_raise", crop_raise, "framing = crop: ingest's crop_raise");
-    sample.Visit(v);
-  }
-  bool Check(std::string* why) const {
-    if (batch <= 0) { *why = "batch must be positive"; return false; }
-    if (threads < 0) { *why = "threads must be >= 0"; return false; }
-    if (framing != "centered" && framing != "crop") {
-      *why = "framing must be centered or crop, not " + framing;
-      return false;
-    }
-    face::CropOptions crop{sample.size, crop_padding, crop_raise};
-    if (!crop.Check(why)) return false;
-    return sample.Check(why);
-  }
-};
 
 // Per-thread rendering state.
 struct SampleRenderer {
@@ -101,21 +60,22 @@ class SynthSamplesRun {
       : o_(o), so_(o.sample), source_(std::move(source)), ctx_(ctx), resolved_(resolved),
         comm_(ctx.comm), crop_(o.framing == "crop") {}
 
-  void Run() {
+  StageSummary Run() {
     ReadRig();
     S_ = rig_.NumShapes();
     camera_ = synth::SampleCamera(so_);
     distance_ = render::FramingDistance(rig_, camera_, so_.fill);
     evaluator_ = std::make_unique<const rig::RigEvaluator>(rig_);
     crop_template_ = face::CropTemplate({so_.size, o_.crop_padding, o_.crop_raise});
-    if (OpenOutput()) return;
+    StageSummary summary{source_.out, "samples", source_.count, 0};
+    if (OpenOutput()) return summary;
     const int threads = ThreadsPerRank(o_.threads);
     renderers_ = std::vector<SampleRenderer>(threads);
     FrameLoopOptions loop;
     loop.what = source_.stage;
     loop.batch = o_.batch;
     loop.threads = threads;
-    RunFrameLoopAndCommit(
+    summary.computed = RunFrameLoopAndCommit(
         comm_, pending_, source_.count, loop,
         [&](int64_t index, int thread) { return Sample(index, thread); },
         [&](const std::vector<int64_t>& frames, const std::vector<std::vector<uint8_t>>& results) {
@@ -127,6 +87,7 @@ class SynthSamplesRun {
     if (comm_.IsMainRank()) {
       FC_INFO("{}: {} samples -> {}", source_.stage, source_.count, source_.out);
     }
+    return summary;
   }
 
   // The rig, and its shape names resolved into the sparsity groups (after Run or ReadRig).
@@ -231,63 +192,17 @@ class SynthSamplesRun {
   std::mutex copy_mutex_;
 };
 
-void RunSynthSamples(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<SynthSamplesOptions>(flags, &ctx, &resolved);
+}  // namespace
+
+StageSummary RunSynthSamples(const SynthSamplesOptions& o, const StageContext& ctx,
+                             const io::Config& resolved) {
   SampleSource source;
   source.out = o.out;
   source.count = o.sample.count;
-  SynthSamplesRun(o, std::move(source), ctx, resolved).Run();
+  return SynthSamplesRun(o, std::move(source), ctx, resolved).Run();
 }
 
-// [synth.expand]
-struct SynthExpandOptions {
-  std::string rig = "rig.h5";                 // the rig the samples were rendered with
-  std::string samples = "contracted.h5";      // the set to expand (synth contract's output)
-  std::string frame_codes = "translated.h5";  // deepfake infer of the footage crops
-  std::string track = "track.h5";             // the tracker's solutions on those frames
-  std::string out = "expanded.h5";            // output file
-  int64_t count = 0;                          // samples in the output (0: the random set's)
-  double gap_fraction = 0.2;                  // real frames taken as gaps
-  int neighbors = 5;                          // k of the mean distance to the k nearest codes
-  int batch = 32;
-  int threads = 0;
-  synth::ExpansionOptions expansion;
-
-  template <class V>
-  void Visit(V&& v) {
-    v("rig", rig, "rig file the samples were rendered with (HDF5)");
-    v("samples", samples, "samples to expand: synth contract's output (with /samples/latent)");
-    v("frame_codes", frame_codes,
-      "deepfake infer's output on the footage crops (/frames/latent_of_translation: each "
-      "frame's translation's code E(D_A(E(I))))");
-    v("track", track, "the tracker's solutions on the same frames: its track of the footage, a "
-      "row per frame of frame_codes");
-    v("out", out, "output file (HDF5): the samples, then the new ones");
-    v("count", count,
-      "samples in the output, the kept ones included (0: the count the random set was drawn "
-      "with, so that the expanded set is as large as the raw one)");
-    v("gap_fraction", gap_fraction,
-      "fraction of the real frames, those farthest from every sample's code, whose solutions "
-      "seed the new samples");
-    v("neighbors", neighbors, "k of the mean distance to the k nearest codes");
-    v("batch", batch, "samples per rank per round; each round is a checkpoint");
-    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
-    expansion.Visit(v);
-  }
-  bool Check(std::string* why) const {
-    if (count < 0) { *why = "count must be >= 0"; return false; }
-    if (!(gap_fraction > 0 && gap_fraction <= 1)) {
-      *why = "gap_fraction must be in (0, 1]";
-      return false;
-    }
-    if (neighbors < 1) { *why = "neighbors must be at least 1"; return false; }
-    if (batch <= 0) { *why = "batch must be positive"; return false; }
-    if (threads < 0) { *why = "threads must be >= 0"; return false; }
-    return expansion.Check(why);
-  }
-};
+namespace {
 
 // The [synth.samples] options a samples file was made with.
 SynthSamplesOptions SamplingOptionsOf(const io::H5File& f) {
@@ -348,10 +263,10 @@ Gaps FindGaps(const SynthExpandOptions& o, const io::H5File& samples, int num_sh
   return gaps;
 }
 
-void RunSynthExpand(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<SynthExpandOptions>(flags, &ctx, &resolved);
+}  // namespace
+
+StageSummary RunSynthExpand(const SynthExpandOptions& o, const StageContext& ctx,
+                            const io::Config& resolved) {
   const dist::Comm& comm = ctx.comm;
   io::H5File samples;
   SynthSamplesOptions sampling;
@@ -433,10 +348,8 @@ void RunSynthExpand(const StageFlags& flags, AppState* state) {
                             o.samples + " (give the rig the samples were rendered with)");
   }
   sparsity = run.sparsity();
-  run.Run();
+  return run.Run();
 }
-
-}  // namespace
 
 void RegisterSynth(CLI::App* app, AppState* state) {
   CLI::App* synth = app->add_subcommand("synth", "Synthetic data with known truth");
@@ -447,7 +360,7 @@ void RegisterSynth(CLI::App* app, AppState* state) {
       "truncated Gaussian) rendered as segmentation images with landmarks; spread across ranks, "
       "identical for any rank count, resumable",
       PathKeys{{"rig"}, {{"out", OutputKind::kHdf5}}},
-      RunSynthSamples);
+      StageCommand(RunSynthSamples));
   AddStage<SynthExpandOptions>(
       synth, state, "expand", "synth.expand", "synth expand",
       "Expand a contracted sample set (paper 000 Sec. 7.2): the real frames whose deepfake codes "
@@ -456,7 +369,7 @@ void RegisterSynth(CLI::App* app, AppState* state) {
       "rendered as new samples with the set's own sampling options; identical for any rank "
       "count, resumable",
       PathKeys{{"rig", "samples", "frame_codes", "track"}, {{"out", OutputKind::kHdf5}}},
-      RunSynthExpand);
+      StageCommand(RunSynthExpand));
   RegisterSynthContract(synth, state);
   RegisterSynthClip(synth, state);
   RegisterSynthCrops(synth, state);

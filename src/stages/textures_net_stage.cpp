@@ -1,6 +1,8 @@
 // facecap textures train / infer: the expression texture networks (paper 001 Sec. 5.2, Fig.
 // 7) trained on a textured scan database with the training controller, and a person's dynamic
 // texture library made from their predicted expression textures (eq. 12-13).
+#include "stages/textures_net_stage.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -30,50 +32,6 @@ namespace {
 static_assert(textures::kPersonChannels == nn::TextureNets::kPersonChannels);
 static_assert(textures::kExpressionChannels == nn::TextureNets::kExpressionChannels);
 static_assert(textures::kOutputChannels == nn::TextureNets::kOutputChannels);
-
-// [textures.train]
-struct TexturesTrainOptions {
-  std::string scans = "scans.h5";      // textured scan database
-  std::string out = "texnet.h5";       // trained model
-  int epochs = 24;                     // passes over the training people's expressions
-  int batch = 8;                       // expressions per optimizer step, all ranks together
-  float low_frequency_sigma = 2.f;     // blur of the displacement's low-frequency part, texels
-  int checkpoint_every = 100;          // steps between checkpoints
-  double progress_seconds = 10;        // interval of the progress lines
-  int threads = 0;                     // tensor threads per rank (0: the cores divided among ranks)
-  int seed = 1;                        // batch order seed
-  nn::TextureNetOptions net;
-
-  static std::vector<std::pair<std::string, std::string>> HelpSections() {
-    return {{"scans", "Data and schedule"}, {"model.channels", "Networks and optimizer"}};
-  }
-  template <class V>
-  void Visit(V&& v) {
-    v("scans", scans, "textured scan database (scans synth with texture_size > 0, or scans import of meshes with "
-                      "their skin maps); its training people (split 0) are learnt, at its maps' resolution");
-    v("out", out, "trained model (HDF5)");
-    v("epochs", epochs, "passes over every training person's expressions");
-    v("batch", batch, "expressions per optimizer step, all ranks together");
-    v("low_frequency_sigma", low_frequency_sigma,
-      "standard deviation in texels of the Gaussian blur that splits the displacement offset into the low-frequency "
-      "part and the high-frequency rest, which the second network predicts as two channels");
-    v("checkpoint_every", checkpoint_every, "optimizer steps between checkpoints");
-    v("progress_seconds", progress_seconds, "seconds between progress lines");
-    v("threads", threads, "tensor threads per rank (0: the cores divided among the node's ranks)");
-    v("seed", seed, "batch order seed");
-    io::VisitGroup("model", net, v);
-  }
-  bool Check(std::string* why) const {
-    if (scans.empty() || out.empty()) { *why = "scans and out must name files"; return false; }
-    if (epochs < 1) { *why = "epochs must be >= 1"; return false; }
-    if (batch < 1) { *why = "batch must be >= 1"; return false; }
-    if (!(low_frequency_sigma > 0.f && low_frequency_sigma <= 64.f)) { *why = "low_frequency_sigma must be in (0, 64]"; return false; }
-    if (checkpoint_every < 1) { *why = "checkpoint_every must be >= 1"; return false; }
-    if (!(progress_seconds > 0)) { *why = "progress_seconds must be positive"; return false; }
-    if (threads < 0) { *why = "threads must be >= 0"; return false; }
-    return net.Check(why);
-  }
-};
 
 // The training people's channels, normalized, and the normalizations.
 struct TextureTrainingData {
@@ -231,11 +189,10 @@ class TextureTraining : public train::Network {
   std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
 };
 
+}  // namespace
 
-void RunTexturesTrain(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<TexturesTrainOptions>(flags, &ctx, &resolved);
+StageSummary RunTexturesTrain(const TexturesTrainOptions& o, const StageContext& ctx,
+                              const io::Config& resolved) {
   const dist::Comm& comm = ctx.comm;
   nn::SetTensorThreads(ThreadsPerRank(o.threads));
   TextureTrainingData data;
@@ -256,43 +213,13 @@ void RunTexturesTrain(const StageFlags& flags, AppState* state) {
     FC_INFO("textures train: {} steps in {:.1f} s ({:.3f} s per step) on {} ranks -> {}", r.steps_run, r.seconds,
             r.seconds / std::max<int64_t>(1, r.steps_run), comm.size(), o.out);
   }
+  return StageSummary{o.out, "steps", control.steps, r.steps_run};
 }
 
-// [textures.infer]
-struct TexturesInferOptions {
-  std::string model = "texnet.h5";  // textures train output
-  std::string rig = "rig.h5";       // the person's rig
-  std::string scans = "scans.h5";   // where the person's neutral skin maps are
-  std::string person = "0";         // the person in it
-  float sharpness = 300.f;          // b of eq. 12, per cm
-  std::string out = "library.h5";   // the library (a textured rig)
-
-  template <class V>
-  void Visit(V&& v) {
-    v("model", model, "texture network model (textures train)");
-    v("rig", rig, "the person's rig (blendshapes infer, or any rig of the model's topology): its neutral and its "
-                  "shapes at the model's FACS weights are the expressions whose textures the networks predict");
-    v("scans", scans, "scan database holding the person's neutral skin maps (scans import of the neutral scan with its "
-                      "maps, or scans synth)");
-    v("person", person, "the person in scans: a name of /scans/people/names or an index");
-    v("sharpness", sharpness, "b of eq. 12's softmax exp(b I) over the influence maps, per cm of edge length change "
-                              "(the paper's equation: 1)");
-    v("out", out, "the library: a textured rig (HDF5) with /dynamic_texture (T_N, T_C, T_S and the shapes' "
-                  "influences) made from the predicted expression textures, and /predicted [K, S, S, 5] with them");
-  }
-  bool Check(std::string* why) const {
-    if (model.empty() || rig.empty() || scans.empty() || out.empty()) { *why = "model, rig, scans and out must name files"; return false; }
-    if (person.empty()) { *why = "person must name a person or give an index"; return false; }
-    if (!(sharpness > 0.f && sharpness <= 1000.f)) { *why = "sharpness must be in (0, 1000]"; return false; }
-    return true;
-  }
-};
-
-void RunTexturesInfer(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<TexturesInferOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+StageSummary RunTexturesInfer(const TexturesInferOptions& o, const StageContext& ctx,
+                              const io::Config& resolved) {
+  StageSummary summary{o.out, "files", 0, 0};
+  if (!ctx.comm.IsMainRank()) return summary;
   const TextureModel model(o.model);
   const rig::Rig rig = io::ReadRigFile(o.rig);
   if (rig.NumVertices() != model.template_rig().NumVertices() || rig.NumShapes() != model.template_rig().NumShapes()) {
@@ -309,9 +236,10 @@ void RunTexturesInfer(const StageFlags& flags, AppState* state) {
     throw InvalidInputError(o.scans + ": skin maps of another size than the model's " + std::to_string(S) + "^2");
   }
   ResumableOutput output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "textures infer", resolved));
+  summary.items = 1;
   if (output.up_to_date) {
     FC_INFO("textures infer: {} is up to date", o.out);
-    return;
+    return summary;
   }
   // The expressions: the rig at each FACS row of the model's table.
   const int K = static_cast<int>(model.facs_weights().rows());
@@ -337,9 +265,9 @@ void RunTexturesInfer(const StageFlags& flags, AppState* state) {
   output.file.WriteStrings("/predicted_names", model.facs_names());
   output.file.Commit();
   FC_INFO("textures infer: {} predicted expression textures {}x{}, library -> {}", K, S, S, o.out);
+  summary.computed = 1;
+  return summary;
 }
-
-}  // namespace
 
 void RegisterTexturesNetworks(CLI::App* app, AppState* state) {
   CLI::App* textures = GroupSubcommand(app, "textures", "Dynamic textures (paper 001 Sec. 5)");
@@ -350,14 +278,14 @@ void RegisterTexturesNetworks(CLI::App* app, AppState* state) {
       "offset geometry image and influences; the second the specular and displacement offsets from those and the "
       "first's prediction. Data-parallel over ranks (gradient allreduce), checkpoints, resume",
       PathKeys{{"scans"}, {{"out", OutputKind::kHdf5}}},
-      RunTexturesTrain);
+      StageCommand(RunTexturesTrain));
   AddStage<TexturesInferOptions>(
       textures, state, "infer", "textures.infer", "textures infer",
       "A person's dynamic texture library from their neutral skin maps and rig alone: the networks predict the "
       "textures of the model's FACS expressions of the rig, and compress and stretch maps are fitted to them for the "
       "strain texture (a textured rig that render draws and export textures plays)",
       PathKeys{{"model", "rig", "scans"}, {{"out", OutputKind::kHdf5}}},
-      RunTexturesInfer);
+      StageCommand(RunTexturesInfer));
 }
 
 }  // namespace facecap::stages

@@ -1,5 +1,7 @@
 // facecap eval textures: dynamic textures (paper 001 Sec. 5, eq. 10-14) on the held-out
 // people of a textured scan database, against the true expression textures.
+#include "stages/textures_stage.h"
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -30,40 +32,6 @@
 
 namespace facecap::stages {
 namespace {
-
-// [eval.textures]
-struct EvalTexturesOptions {
-  std::string scans = "scans.h5";  // textured scan database (scans synth)
-  float sharpness = 300.f;         // b of eq. 12, per cm
-  bool json = true;                // print one JSON object (else a table)
-  std::string out = "";            // also write the JSON to this file
-  std::string maps = "";           // the first held-out person's maps (HDF5)
-  std::string model = "";          // texture network model (textures train): the predicted rows
-
-  template <class V>
-  void Visit(V&& v) {
-    v("scans", scans, "textured scan database (scans synth with texture_size > 0)");
-    v("sharpness", sharpness, "b of eq. 12's softmax exp(b I) over the influence maps, per cm of edge length "
-                              "change (the paper's equation: 1)");
-    v("json", json, "print one JSON object (false: a readable table)");
-    v("out", out, "also write the JSON object to this file (empty: none)");
-    v("maps", maps, "HDF5 file for the first held-out person's maps: the library (/library/neutral, "
-                    "compress, stretch [S, S, 5] of eq. 12-13, reference [S, S, 2], fitted_compress, "
-                    "fitted_stretch; /library/shape_influence [N, V, 2]), the expressions' "
-                    "influences (/influence/vertex [K, V, 2], /influence/texel [K, S, S, 2]; R compress, "
-                    "G stretch) and textures (/textures/truth; /textures/dynamic, the strain texture of the library of "
-                    "the other expressions; /textures/as_printed, eq. 14 as printed; /textures/per_blendshape "
-                    "[K, S, S, 5]; with a model /textures/network, the networks' expression textures, and "
-                    "/textures/predicted, the strain texture of the library made from them) (empty: none)");
-    v("model", model, "texture network model (textures train): adds the rows of the networks' expression textures "
-                      "and of the strain texture of the library made from them (empty: none)");
-  }
-  bool Check(std::string* why) const {
-    if (scans.empty()) { *why = "scans must name a file"; return false; }
-    if (!(sharpness > 0.f && sharpness <= 1000.f)) { *why = "sharpness must be in (0, 1000]"; return false; }
-    return true;
-  }
-};
 
 // Squared errors per layer (albedo over its 3 channels, specular, displacement in mm) over
 // the texels of a region.
@@ -265,11 +233,12 @@ void ReportEvalTextures(const EvalTexturesOptions& o, const TextureScores& score
   if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
 }
 
-void RunEvalTextures(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<EvalTexturesOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+}  // namespace
+
+StageSummary RunEvalTextures(const EvalTexturesOptions& o, const StageContext& ctx,
+                             const io::Config& resolved) {
+  StageSummary summary{o.out, "files", 0, 0};
+  if (!ctx.comm.IsMainRank()) return summary;
   const io::H5File f = io::H5File::OpenRead(o.scans);
   if (!f.Exists("/scans/textures/neutral") || !f.Exists("/scans/truth/shape_offsets")) {
     throw FileIOError(o.scans + ": no skin maps (/scans/textures, /scans/truth/shape_offsets); make it with "
@@ -409,39 +378,15 @@ void RunEvalTextures(const StageFlags& flags, AppState* state) {
   if (people == 0) throw FileIOError(o.scans + ": no held-out people");
   scores.model = model != nullptr;
   ReportEvalTextures(o, scores, people, K, N, S);
+  summary.items = 1;
+  summary.computed = 1;
+  return summary;
 }
 
-// [textures.library]
-struct TexturesLibraryOptions {
-  std::string scans = "scans.h5";  // scan database with skin maps
-  std::string person = "0";        // the person: a name of /scans/people/names or an index
-  std::string rig = "rig.h5";      // the person's rig
-  float sharpness = 300.f;         // b of eq. 12, per cm
-  std::string out = "library.h5";  // the library (a textured rig)
-
-  template <class V>
-  void Visit(V&& v) {
-    v("scans", scans, "scan database with skin maps (scans synth, or scans import of meshes with their maps)");
-    v("person", person, "the person whose expressions make the library: a name of /scans/people/names or an index");
-    v("rig", rig, "the person's rig (blendshapes infer, or any rig of the database's topology); its mesh at a "
-                  "frame's weights drives the strain texture");
-    v("sharpness", sharpness, "b of eq. 12's softmax exp(b I) over the influence maps, per cm of edge length change "
-                              "(the paper's equation: 1)");
-    v("out", out, "the library: a textured rig (HDF5) with /dynamic_texture (T_N, T_C, T_S and the shapes' influences)");
-  }
-  bool Check(std::string* why) const {
-    if (scans.empty() || rig.empty() || out.empty()) { *why = "scans, rig and out must name files"; return false; }
-    if (person.empty()) { *why = "person must name a person or give an index"; return false; }
-    if (!(sharpness > 0.f && sharpness <= 1000.f)) { *why = "sharpness must be in (0, 1000]"; return false; }
-    return true;
-  }
-};
-
-void RunTexturesLibrary(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<TexturesLibraryOptions>(flags, &ctx, &resolved);
-  if (!ctx.comm.IsMainRank()) return;
+StageSummary RunTexturesLibrary(const TexturesLibraryOptions& o, const StageContext& ctx,
+                                const io::Config& resolved) {
+  StageSummary summary{o.out, "files", 0, 0};
+  if (!ctx.comm.IsMainRank()) return summary;
   const io::H5File f = io::H5File::OpenRead(o.scans);
   if (!f.Exists("/scans/textures/neutral")) {
     throw FileIOError(o.scans + ": no skin maps (/scans/textures); make it with scans synth (texture_size > 0) or "
@@ -458,9 +403,10 @@ void RunTexturesLibrary(const StageFlags& flags, AppState* state) {
   }
   const int j = ScanPersonIndex(f, o.scans, o.person, P);
   ResumableOutput output = OpenResumableOutput(o.out, resolved.ToToml(), MakeProvenance(ctx, "textures library", resolved));
+  summary.items = 1;
   if (output.up_to_date) {
     FC_INFO("textures library: {} is up to date", o.out);
-    return;
+    return summary;
   }
   const size_t floats = static_cast<size_t>(S) * S * synth::kSkinChannels;
   auto mesh = [&](const float* d) { return rig::Vertices(Eigen::Map<const rig::Vertices>(d, V, 3)); };
@@ -486,40 +432,12 @@ void RunTexturesLibrary(const StageFlags& flags, AppState* state) {
   output.file.Commit();
   FC_INFO("textures library: person {} of {}, {} expressions, {} shapes, {}x{} maps -> {}", j, o.scans, K, N, S, S,
           o.out);
+  summary.computed = 1;
+  return summary;
 }
 
-// [export.textures]
-struct ExportTexturesOptions {
-  std::string library = "library.h5";  // textures library output
-  std::string track = "track.h5";      // tracked take
-  std::string out = "textures";        // folder of the EXR sequences
-  std::vector<std::string> layers = {"albedo", "specular", "displacement"};
-
-  template <class V>
-  void Visit(V&& v) {
-    v("library", library, "dynamic texture library (textures library): the person's rig with its maps");
-    v("track", track, "tracked take (track, or any file in its layout) whose weights drive the strain texture");
-    v("out", out, "folder for the sequences OUT/<layer>.<frame, 5 digits>.exr (linear albedo RGB, specular, "
-                  "displacement in mm); frames already there are kept");
-    v("layers", layers, "layers to write: albedo, specular, displacement");
-  }
-  bool Check(std::string* why) const {
-    if (library.empty() || track.empty() || out.empty()) { *why = "library, track and out must name files"; return false; }
-    if (layers.empty()) { *why = "layers is empty"; return false; }
-    for (const std::string& l : layers) {
-      if (l != "albedo" && l != "specular" && l != "displacement") {
-        *why = "layers must be albedo, specular or displacement, got '" + l + "'";
-        return false;
-      }
-    }
-    return true;
-  }
-};
-
-void RunExportTextures(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<ExportTexturesOptions>(flags, &ctx, &resolved);
+StageSummary RunExportTextures(const ExportTexturesOptions& o, const StageContext& ctx,
+                               const io::Config& /*resolved*/) {
   const dist::Comm& comm = ctx.comm;
   rig::Rig rig;
   std::unique_ptr<textures::RigStrainTexture> dynamic;
@@ -565,9 +483,8 @@ void RunExportTextures(const StageFlags& flags, AppState* state) {
     FC_INFO("export textures: {} frames x {} layers at {}x{} -> {} ({} kept from an earlier run)", F, o.layers.size(), S,
             S, o.out, total_kept);
   }
+  return StageSummary{o.out, "frames", F, F - static_cast<int64_t>(total_kept)};
 }
-
-}  // namespace
 
 void RegisterTextures(CLI::App* app, AppState* state) {
   AddStage<ExportTexturesOptions>(
@@ -577,7 +494,7 @@ void RegisterTextures(CLI::App* app, AppState* state) {
       "specular and "
       "displacement, frames spread across ranks",
       PathKeys{{"library", "track"}, {{"out", OutputKind::kFolder}}},
-      RunExportTextures);
+      StageCommand(RunExportTextures));
   CLI::App* textures = GroupSubcommand(app, "textures", "Dynamic textures (paper 001 Sec. 5)");
   AddStage<TexturesLibraryOptions>(
       textures, state, "library", "textures.library", "textures library",
@@ -586,7 +503,7 @@ void RegisterTextures(CLI::App* app, AppState* state) {
       "writes a textured rig that render draws with the texture of its weights and export textures plays over a "
       "take",
       PathKeys{{"scans", "rig"}, {{"out", OutputKind::kHdf5}}},
-      RunTexturesLibrary);
+      StageCommand(RunTexturesLibrary));
   AddStage<EvalTexturesOptions>(
       EvalSubcommand(app), state, "textures", "eval.textures", "eval textures",
       "Dynamic textures (paper 001 eq. 10-14) on the held-out people of a textured scan database: PSNR "
@@ -594,7 +511,7 @@ void RegisterTextures(CLI::App* app, AppState* state) {
       "expression moves the skin, beside the static neutral texture and per-blendshape maps, and "
       "the library's size against theirs; one JSON object",
       PathKeys{{"scans", "model"}, {{"out", OutputKind::kText}, {"maps", OutputKind::kHdf5}}},
-      RunEvalTextures);
+      StageCommand(RunEvalTextures));
 }
 
 }  // namespace facecap::stages

@@ -6,6 +6,8 @@
 #include <memory>
 #include <mutex>
 
+#include "stages/track_stage.h"
+
 #include "io/config.h"
 #include "io/hdf5.h"
 #include "io/rig_io.h"
@@ -29,89 +31,6 @@
 
 namespace facecap::stages {
 namespace {
-
-// The solver's settings as the track stage defaults them: the landmark term on, each point
-// weighed by its inverse squared measured noise.
-track::TrackerOptions TrackStageSolverDefaults() {
-  track::TrackerOptions t;
-  t.landmark_weight = 1.f;
-  return t;
-}
-
-// [track]
-struct TrackOptions {
-  std::string rig = "rig.h5";             // rig file (HDF5, /rig)
-  std::string targets = "targets.h5";     // file of segmentation targets
-  std::string out = "track.h5";           // output file
-  // Frame dataset of target images [N, H, W, 3] u8; when absent, /samples/segmentation.
-  std::string targets_dataset = io::frames::kSegmentation;
-  // Ingest output whose crops the targets translate (real footage, or a synthetic clip's
-  // video): each frame is tracked in its crop's camera (the source camera assumed by ingest,
-  // seen through the crop transform), the detected landmarks initialise each segment and
-  // feed the landmark term, and the track is written in the source camera, with the source
-  // frame indices, timecodes and frame rate. Empty: the targets file's own camera.
-  std::string frames = "";
-  // Initialisation: "neutral" (frontal neutral, frames independent), "landmarks" (the pose
-  // fitted to the file's 2D landmarks, neutral expression) or "previous" (each frame starts
-  // from the previous frame's solution; frames are solved in segments of segment_frames).
-  std::string init = "neutral";
-  int segment_frames = 16;                // frames per sequential segment (init = previous)
-  // Texture of model and target: "segmentation" (T_seg) or "skin" (a realistic skin albedo
-  // per region, targets recoloured region by region: the realistic-texture baseline).
-  std::string texture = "segmentation";
-  int count = 0;                          // frames to track from the first (0: all)
-  // A frontal source (a lip-sync network's output, a frontal camera): the head's rotation is
-  // held frontal to the source camera and only its position solved.
-  bool frontal = false;
-  // The only controls solved; the others stay at the neutral (empty: all).
-  std::vector<std::string> solve_controls;
-  int batch = 16;                         // work units per rank per round (a checkpoint each)
-  int threads = 0;                        // OpenMP threads per rank (0: cores / node ranks)
-  track::TrackerOptions tracker = TrackStageSolverDefaults();  // the solver
-
-  // --help's sections, by the first key of each.
-  static std::vector<std::pair<std::string, std::string>> HelpSections() {
-    return {{"rig", "Inputs and output"}, {"init", "Start and work"}, {"solver.objective", "Solver"}};
-  }
-  template <class V>
-  void Visit(V&& v) {
-    v("rig", rig, "rig file (HDF5)");
-    v("targets", targets, "file of segmentation targets (HDF5) with /camera/intrinsics");
-    v("out", out, "output file (HDF5)");
-    v("targets_dataset", targets_dataset,
-      "frame dataset of target images [N,H,W,3] u8 (falls back to /samples/segmentation)");
-    v("frames", frames,
-      "ingest output (frames.h5) whose crops the targets translate: frames are tracked in "
-      "their crop's camera, with the detected landmarks, and written in the source camera "
-      "(empty: the targets' own camera)");
-    v("init", init, "initialisation: neutral | landmarks | previous");
-    v("segment_frames", segment_frames, "frames per sequential segment when init = previous");
-    v("texture", texture, "texture of model and targets: segmentation | skin");
-    v("count", count, "frames to track from the first (0: all)");
-    v("frontal", frontal,
-      "hold the head frontal to the source camera (rotation 0) and solve its position only");
-    v("solve_controls", solve_controls,
-      "the only controls solved, by name; every other control stays at the neutral (empty: all)");
-    v("batch", batch, "work units per rank per round; each round is a checkpoint");
-    v("threads", threads, "OpenMP threads per rank (0: the cores divided among the node's ranks)");
-    io::VisitGroup("solver", tracker, v);
-  }
-  bool Check(std::string* why) const {
-    if (init != "neutral" && init != "landmarks" && init != "previous") {
-      *why = "init must be neutral, landmarks or previous, not " + init;
-      return false;
-    }
-    if (texture != "segmentation" && texture != "skin") {
-      *why = "texture must be segmentation or skin, not " + texture;
-      return false;
-    }
-    if (segment_frames < 1) { *why = "segment_frames must be >= 1"; return false; }
-    if (count < 0) { *why = "count must be >= 0"; return false; }
-    if (batch <= 0) { *why = "batch must be positive"; return false; }
-    if (threads < 0) { *why = "threads must be >= 0"; return false; }
-    return tracker.Check(why);
-  }
-};
 
 // What the stage reads of a targets file.
 struct TargetsInfo {
@@ -196,13 +115,14 @@ class TrackRun {
   TrackRun(const TrackOptions& o, const StageContext& ctx, const io::Config& resolved)
       : o_(o), ctx_(ctx), resolved_(resolved), comm_(ctx.comm), crops_(!o.frames.empty()) {}
 
-  void Run() {
+  StageSummary Run() {
     ReadInputs();
     PlanFrames();
     auto tracker = std::make_unique<track::Tracker>(rig_, model_colors_, SolverOptions());
     if (!o_.solve_controls.empty()) tracker->HoldShapesFixed(held_shapes_);
     tracker_ = std::move(tracker);
-    if (OpenOutput()) return;
+    StageSummary summary{o_.out, "frames", frames_, 0};
+    if (OpenOutput()) return summary;
     // Every rank reads its targets; HDF5 reads are serialized within the rank.
     dist::CoordinateExceptions(comm_, [&] { targets_file_ = io::H5File::OpenRead(o_.targets); });
     neutral_weights_ = Eigen::VectorXf::Zero(S_);
@@ -212,13 +132,15 @@ class TrackRun {
     loop.batch = o_.batch;
     loop.dynamic = true;
     loop.threads = ThreadsPerRank(o_.threads);
-    RunFrameLoopAndCommit(
+    const int64_t solved_units = RunFrameLoopAndCommit(
         comm_, pending_, units_, loop, [&](int64_t unit, int /*thread*/) { return SolveUnit(unit); },
         [&](const std::vector<int64_t>& done_units, const std::vector<std::vector<uint8_t>>& results) {
           CommitUnits(done_units, results);
         },
         &output_);
     if (comm_.IsMainRank()) FC_INFO("track: {} frames -> {}", frames_, o_.out);
+    summary.computed = std::min(frames_, solved_units * unit_frames_);
+    return summary;
   }
 
  private:
@@ -494,54 +416,26 @@ class TrackRun {
   std::vector<int> held_shapes_;  // shapes outside solve_controls
 };
 
-void RunTrack(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<TrackOptions>(flags, &ctx, &resolved);
-  TrackRun(o, ctx, resolved).Run();
+}  // namespace
+
+StageSummary RunTrack(const TrackOptions& options, const StageContext& ctx,
+                      const io::Config& resolved) {
+  return TrackRun(options, ctx, resolved).Run();
 }
 
-// [lipsync.track]: the track stage set up for a frontal lip source.
-struct LipsyncTrackOptions : TrackOptions {
-  LipsyncTrackOptions() {
-    frontal = true;
-    solve_controls = lipsync::DefaultMouthControls();
-    init = "previous";
-    // Many mouth controls draw nearly the same segmentation of a frontal mouth: a strong
-    // prior keeps the ones the image does not ask for at the neutral.
-    tracker.weight_prior = 3000.f;
-  }
-  LipTrackFilterOptions filter;
-
-  static std::vector<std::pair<std::string, std::string>> HelpSections() {
-    auto sections = TrackOptions::HelpSections();
-    sections.emplace_back("rest_calibration", "After the solve: the mouth at rest, flicker");
-    return sections;
-  }
-  template <class V>
-  void Visit(V&& v) {
-    TrackOptions::Visit(v);
-    filter.Visit(v);
-  }
-  bool Check(std::string* why) const { return TrackOptions::Check(why) && filter.Check(why); }
-};
-
-void RunLipsyncTrack(const StageFlags& flags, AppState* state) {
-  StageContext ctx{state->comm, {}, state->command_line};
-  io::Config resolved;
-  const auto o = ResolveStageOptions<LipsyncTrackOptions>(flags, &ctx, &resolved);
+StageSummary RunLipsyncTrack(const LipsyncTrackOptions& o, const StageContext& ctx,
+                             const io::Config& resolved) {
   dist::CoordinateExceptions(ctx.comm, [&] {
     std::string why;
     if (!o.filter.Check(&why)) throw InvalidInputError("lipsync track: " + why);
     if (ctx.comm.IsMainRank()) CheckLipTrackSound(o.filter);
   });
-  TrackRun(o, ctx, resolved).Run();
+  StageSummary summary = TrackRun(o, ctx, resolved).Run();
   dist::CoordinateExceptions(ctx.comm, [&] {
     if (ctx.comm.IsMainRank()) FilterLipTrack(o.out, o.frames, o.filter);
   });
+  return summary;
 }
-
-}  // namespace
 
 void RegisterTrack(CLI::App* app, AppState* state) {
   AddStage<TrackOptions>(
@@ -551,7 +445,7 @@ void RegisterTrack(CLI::App* app, AppState* state) {
       "descent (pose, jaw, rest) with Ceres; frames spread across ranks by a dynamic work "
       "queue, identical for any rank count, resumable",
       PathKeys{{"rig", "targets", "frames"}, {{"out", OutputKind::kHdf5}}},
-      RunTrack);
+      StageCommand(RunTrack));
   AddStage<LipsyncTrackOptions>(
       LipsyncSubcommand(app), state, "track", "lipsync.track", "lipsync track",
       "The mouth of a frontal lip video (a lip-sync network's output, a second camera): "
@@ -561,7 +455,7 @@ void RegisterTrack(CLI::App* app, AppState* state) {
       "sound is silent (the mouth at rest) and one-frame flicker removed; writes a track file "
       "for lipsync blend",
       PathKeys{{"rig", "targets", "frames", "sound"}, {{"out", OutputKind::kHdf5}}},
-      RunLipsyncTrack);
+      StageCommand(RunLipsyncTrack));
 }
 
 }  // namespace facecap::stages
