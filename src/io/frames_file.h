@@ -1,6 +1,7 @@
 // The names of the per-frame datasets, one row per frame (N frames), of the files that hold
-// frames: an ingest output (frames.h5: IngestedFrames reads it), deepfake infer's translations,
-// a synthetic clip (synth clip, synth crops) and appearance's turntables and tracked views.
+// frames: an ingest output (frames.h5: IngestedFrames reads it), deepfake infer's translations
+// (translations_file.h reads them), a synthetic clip (synth clip, synth crops; clip_file.h
+// reads its truth) and appearance's turntables and tracked views.
 // Each comment says which files hold the dataset, its shape, type and units; the camera the
 // images were taken with is camera_file.h's.
 #ifndef FACECAP_IO_FRAMES_FILE_H_
