@@ -7,6 +7,8 @@ function(facecap_module name)
   set(dir ${CMAKE_CURRENT_SOURCE_DIR}/${name})
   file(GLOB sources CONFIGURE_DEPENDS ${dir}/*.cpp)
   list(FILTER sources EXCLUDE REGEX "_test\\.cpp$")
+  # A module's main.cpp is the program built from it, not part of its library.
+  list(FILTER sources EXCLUDE REGEX "/main\\.cpp$")
   if(NOT sources)
     # A header-only module (or one not yet written): an INTERFACE target keeps the graph.
     add_library(facecap_${name} INTERFACE)

@@ -1,7 +1,7 @@
-// facecap: one binary, a table of subcommands (stages/registry.h).
+// facecap: one binary, a table of subcommands (app/commands.h).
 #include <malloc.h>
 
-#include "stages/app.h"
+#include "app/app.h"
 
 int main(int argc, char** argv) {
 #ifdef M_MMAP_THRESHOLD
@@ -12,5 +12,5 @@ int main(int argc, char** argv) {
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TRIM_THRESHOLD, 256 << 20);
 #endif
-  return facecap::stages::RunApp(argc, argv);
+  return facecap::app::RunApp(argc, argv);
 }

@@ -25,14 +25,12 @@
 #include "render/texel_map.h"
 #include "render/turntable.h"
 #include "rig/evaluate.h"
-#include "stages/cli.h"
 #include "stages/crop_framing.h"
 #include "stages/frame_loop.h"
 #include "io/frames_file.h"
 #include "stages/frames_video.h"
 #include "stages/holdout.h"
 #include "stages/ingested_frames.h"
-#include "stages/registry.h"
 #include "stages/resumable.h"
 #include "stages/tracked_rig.h"
 #include "util/bytes.h"
@@ -448,35 +446,6 @@ StageSummary RunAppearanceGather(const AppearanceGatherOptions& o, const StageCo
   summary.items = 1;
   summary.computed = 1;
   return summary;
-}
-
-void RegisterAppearance(CLI::App* app, AppState* state) {
-  CLI::App* appearance = app->add_subcommand(
-      "appearance", "The person's texture from their footage (paper 000 Sec. 5): turntables of "
-                    "their rig, and the colours of images of those views gathered into a texture");
-  appearance->require_subcommand(1);
-  AddStage<AppearanceTurntableOptions>(
-      appearance, state, "turntable", "appearance.turntable", "appearance turntable",
-      "Renders of the rig at neutral over a pitch x yaw grid (Sec. 5.2), framed as ingest crops "
-      "footage, each with U(I), triangle ids and depth; a contact sheet; spread across ranks, "
-      "identical for any rank count, resumable",
-      PathKeys{{"rig", "texture"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunAppearanceTurntable));
-  AddStage<AppearanceFramesOptions>(
-      appearance, state, "frames", "appearance.frames", "appearance frames",
-      "Tracked footage as views for gathering: each frame's image (ingest's crop) with the "
-      "tracked rig's U(I), triangle ids and depth in its camera, laid out as the turntable's; "
-      "splatting these is the naive capture the deepfake's translations are measured against; "
-      "spread across ranks, resumable",
-      PathKeys{{"frames", "track", "rig"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunAppearanceFrames));
-  AddStage<AppearanceGatherOptions>(
-      appearance, state, "gather", "appearance.gather", "appearance gather",
-      "Photon gathering (Sec. 5.4): every pixel of the views' images is a particle at its U(I) "
-      "position; each texel averages its k nearest particles of its UV chart by inverse "
-      "distance, with a confidence from the radius they needed; HDF5, linear EXR and sRGB PNG",
-      PathKeys{{"views", "images"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunAppearanceGather));
 }
 
 }  // namespace facecap::stages

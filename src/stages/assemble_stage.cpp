@@ -15,8 +15,6 @@
 #include "io/texture_file.h"
 #include "rig/demo_head.h"
 #include "stages/blendshape_predictor.h"
-#include "stages/cli.h"
-#include "stages/registry.h"
 #include "synth/skin_dynamics.h"
 #include "util/errors.h"
 #include "util/json.h"
@@ -266,23 +264,6 @@ StageSummary RunEvalAssembly(const EvalAssemblyOptions& o, const StageContext& c
   summary.items = 1;
   summary.computed = 1;
   return summary;
-}
-
-void RegisterAssemble(CLI::App* app, AppState* state) {
-  AddStage<AssembleOptions>(
-      app, state, "assemble", "assemble", "assemble",
-      "Secondary parts for a personalized rig (paper 001 Sec. 6): eyeballs with a procedural iris matched to the "
-      "albedo and a cornea, lacrimal fluid, eyelashes, teeth, gums and tongue, placed on the person's face and "
-      "driven by each of their shapes (a linear fit of the template's shapes; the jaw's parts follow the jaw); "
-      "writes the rig file with /parts, which rig export and export gltf add as separate meshes",
-      PathKeys{{"rig"}, {{"out", OutputKind::kHdf5}}}, StageCommand(RunAssemble));
-  AddStage<EvalAssemblyOptions>(
-      EvalSubcommand(app), state, "assembly", "eval.assembly", "eval assembly",
-      "Secondary parts on the held-out people of a scan database, over every shape and random weight "
-      "combinations: eyelash roots to the lid surface, eyelid vertices inside the eyeballs, lower teeth "
-      "against the jaw's rotation; beside the generic parts and the coefficient fit alone",
-      PathKeys{{"scans", "model"}, {{"out", OutputKind::kText}}},
-      StageCommand(RunEvalAssembly));
 }
 
 }  // namespace facecap::stages

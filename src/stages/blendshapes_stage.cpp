@@ -34,10 +34,8 @@
 #include "io/rig_io.h"
 #include "nn/blendshape_generator.h"
 #include "stages/blendshape_predictor.h"
-#include "stages/cli.h"
 #include "stages/frame_loop.h"
 #include "stages/holdout.h"
-#include "stages/registry.h"
 #include "stages/resumable.h"
 #include "stages/texture_networks.h"
 #include "train/controller.h"
@@ -793,35 +791,6 @@ StageSummary RunEvalBlendshapes(const EvalBlendshapesOptions& o, const StageCont
     summary.computed = 1;
   });
   return summary;
-}
-
-void RegisterBlendshapes(CLI::App* app, AppState* state) {
-  CLI::App* bs = app->add_subcommand("blendshapes", "Personalized blendshapes from one neutral scan");
-  bs->require_subcommand(1);
-  AddStage<BlendshapesTrainOptions>(
-      bs, state, "train", "blendshapes.train", "blendshapes train",
-      "Train the blendshape generator (Estimation Stage, then Tuning Stage with the blending weight "
-      "predictor) on a scan database; data-parallel with gradient allreduce, resumable",
-      PathKeys{{"scans"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunBlendshapesTrain));
-  AddStage<BlendshapesBaselinesOptions>(
-      bs, state, "baselines", "blendshapes.baselines", "blendshapes baselines",
-      "Baseline shapes for every person of a scan database: the template moved by deformation "
-      "transfer, and example-based facial rigging on the person's scans",
-      PathKeys{{"scans"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunBlendshapesBaselines));
-  AddStage<BlendshapesInferOptions>(
-      bs, state, "infer", "blendshapes.infer", "blendshapes infer",
-      "One neutral mesh (an OBJ, or a person of a scan database) to a personalized rig.h5",
-      PathKeys{{"model", "neutral", "scans"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunBlendshapesInfer));
-  CLI::App* eval = EvalSubcommand(app);
-  AddStage<EvalBlendshapesOptions>(
-      eval, state, "blendshapes", "eval.blendshapes", "eval blendshapes",
-      "Reconstruction errors of template, example-based and generated blendshapes on training and "
-      "held-out people (paper 001 Table 2), and their distance to the true personal shapes",
-      PathKeys{{"scans", "baselines", "model"}, {{"markdown", OutputKind::kText}, {"shapes", OutputKind::kHdf5}}},
-      StageCommand(RunEvalBlendshapes));
 }
 
 }  // namespace facecap::stages

@@ -17,9 +17,7 @@
 #include "io/hdf5.h"
 #include "io/image_io.h"
 #include "render/contact_sheet.h"
-#include "stages/cli.h"
 #include "io/frames_file.h"
-#include "stages/registry.h"
 #include "util/errors.h"
 #include "util/log.h"
 
@@ -389,25 +387,6 @@ StageSummary RunCurateQuery(const CurateQueryOptions& o, const StageContext& ctx
   summary.items = static_cast<int64_t>(picks.unique.size());
   summary.computed = summary.items;
   return summary;
-}
-
-void RegisterCurate(CLI::App* app, AppState* state) {
-  CLI::App* curate = app->add_subcommand("curate", "Curate frames: features and the hierarchical "
-                                                   "cluster tree (paper 000 Sec. 3), and queries");
-  curate->require_subcommand(1);
-  AddStage<CurateBuildOptions>(
-      curate, state, "build", "curate.build", "curate build",
-      "Features f_pose, f_lighting, f_expression of every face in an ingest output and the tree "
-      "of k-means levels over them (default: 9 pose clusters, 3 lighting clusters each, flat "
-      "expression)",
-      PathKeys{{"frames"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunCurateBuild));
-  AddStage<CurateQueryOptions>(
-      curate, state, "query", "curate.query", "curate query",
-      "Frames that match a query (a frame, an image, a folder of renders, or another ingest "
-      "output) with q_1..q_n picks per level; writes their indices and a contact sheet",
-      PathKeys{{"curation", "frames", "image", "renders", "query_frames", "landmark_model"}, {{"out", OutputKind::kHdf5}, {"sheet", OutputKind::kImage}}},
-      StageCommand(RunCurateQuery));
 }
 
 }  // namespace facecap::stages

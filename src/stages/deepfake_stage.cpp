@@ -26,14 +26,13 @@
 #include "io/hdf5.h"
 #include "io/image_io.h"
 #include "nn/augment.h"
+#include "nn/deepfake_batches.h"
 #include "nn/deepfake.h"
 #include "nn/deepfake_io.h"
 #include "io/camera_file.h"
-#include "stages/cli.h"
 #include "stages/frame_loop.h"
 #include "io/frames_file.h"
 #include "stages/holdout.h"
-#include "stages/registry.h"
 #include "stages/resumable.h"
 #include "train/controller.h"
 #include "synth/appearance.h"
@@ -109,12 +108,8 @@ std::vector<int64_t> UsableFrames(const io::H5File& f, const std::string& datase
 }
 
 // One rank's block of an image dataset, in memory.
-struct ImageShard {
-  int size = 0;
-  int64_t total = 0;                  // usable frames in the whole dataset
-  std::vector<uint8_t> pixels;        // [count, size, size, 3]
-  int64_t count() const { return size ? static_cast<int64_t>(pixels.size()) / (3LL * size * size) : 0; }
-  const uint8_t* image(int64_t i) const { return pixels.data() + i * 3LL * size * size; }
+struct ImageShard : nn::ImageStack {
+  int64_t total = 0;  // usable frames in the whole dataset
 };
 
 ImageShard ReadShard(const std::string& path, const std::string& requested, const dist::Comm& comm,
@@ -359,13 +354,15 @@ class DeepfakeTraining : public train::Network {
     preview_a_ = ResizedImages(d_.a, 0, preview_rows_, size_);
     preview_b_ = ResizedImages(d_.b, 0, preview_rows_, size_);
     SetUpRegionWeights();
-    SetUpBackgrounds();
+    composer_ = std::make_unique<nn::DeepfakeBatchComposer>(
+        nn::BatchSources{&d_.a, &d_.b, &d_.paired_image, &d_.paired_target}, Composition(),
+        BackgroundBank());
   }
 
   int NumLosses() const override { return nn::DeepfakeLosses::kCount; }
   void Backward(int64_t step, double* losses) override {
     Rng rng(static_cast<uint64_t>(o_.seed), static_cast<uint64_t>(step) * 65536u + comm_.rank());
-    for (int i = 0; i < batch_.count; ++i) AddExample(i, &rng);
+    for (int i = 0; i < batch_.count; ++i) composer_->AddExample(i, &rng, &batch_);
     trainer_.Backward(batch_, share_).ToArray(losses);
   }
   float* gradients() override { return trainer_.gradients(); }
@@ -452,10 +449,10 @@ class DeepfakeTraining : public train::Network {
   }
 
   // Random backgrounds for the paired frames (augment.random_background): a bank of procedural
-  // backgrounds through the camera's degradations, the same on every rank, and each paired
-  // frame's background mask.
-  void SetUpBackgrounds() {
-    if (!(o_.augment.random_background > 0 && d_.paired_target.count() > 0)) return;
+  // backgrounds through the camera's degradations, the same on every rank.
+  std::vector<Image8> BackgroundBank() const {
+    std::vector<Image8> bank;
+    if (!(o_.augment.random_background > 0 && d_.paired_target.count() > 0)) return bank;
     const int s = d_.paired_image.size;
     Rng bank_rng(static_cast<uint64_t>(o_.seed), 0x4241434bu);
     for (int k = 0; k < 64; ++k) {
@@ -463,39 +460,19 @@ class DeepfakeTraining : public train::Network {
       Image8 image(s, s, 3);
       synth::DegradeFrame(synth::MakeBackground(s, s, seed), Eigen::Vector3f::Ones(), seed, 0,
                           synth::CameraDegradationOptions{}, &image);
-      background_bank_.push_back(std::move(image));
+      bank.push_back(std::move(image));
     }
-    for (int64_t i = 0; i < d_.paired_target.count(); ++i) {
-      paired_masks_.push_back(nn::BorderBackgroundMask(d_.paired_target.image(i), s));
-    }
-    composite_.resize(3LL * s * s);
+    return bank;
   }
 
-  // Example i of this rank's batch: an A pair (a segmentation render, or a paired frame of
-  // another person with its segmentation) and a B pair.
-  void AddExample(int i, Rng* rng) {
-    const int64_t ia = rng->UniformInt(d_.a.count()), ib = rng->UniformInt(d_.b.count());
-    const uint8_t* input_a = nullptr;
-    const ImageShard* target_a = &d_.a;
-    int64_t index_a = ia;
-    nn::PairKind kind_a = nn::PairKind::kSegmentation;
-    if (!o_.paired.empty() && rng->Uniform() < o_.paired_fraction) {
-      // A paired example: a camera-like frame of another person, its true segmentation.
-      index_a = rng->UniformInt(d_.paired_target.count());
-      target_a = &d_.paired_target;
-      input_a = d_.paired_image.image(index_a);
-      kind_a = nn::PairKind::kPairedCamera;
-      if (!background_bank_.empty() && rng->Uniform() < o_.augment.random_background) {
-        const Image8& background = background_bank_[rng->UniformInt(background_bank_.size())];
-        nn::ReplaceBackground(input_a, background.data.data(), paired_masks_[index_a],
-                              d_.paired_image.size, composite_.data());
-        input_a = composite_.data();
-      }
-    }
-    nn::AugmentPair(target_a->image(index_a), target_a->size, size_, o_.augment, kind_a, rng,
-                    &batch_.input_a[i * image_floats_], &batch_.target_a[i * image_floats_], input_a);
-    nn::AugmentPair(d_.b.image(ib), d_.b.size, size_, o_.augment, nn::PairKind::kCamera, rng,
-                    &batch_.input_b[i * image_floats_], &batch_.target_b[i * image_floats_]);
+  // What each example is drawn from.
+  nn::BatchComposition Composition() const {
+    nn::BatchComposition c;
+    c.size = size_;
+    c.paired = !o_.paired.empty();
+    c.paired_fraction = o_.paired_fraction;
+    c.augment = o_.augment;
+    return c;
   }
 
   const DeepfakeTrainOptions& o_;
@@ -511,9 +488,7 @@ class DeepfakeTraining : public train::Network {
   std::vector<uint8_t> preview_a_, preview_b_;
   std::vector<float> averaged_;         // rank 0: the moving average of the weights
   std::vector<float> region_weights_;   // the palette terms' class weights
-  std::vector<Image8> background_bank_;
-  std::vector<std::vector<uint8_t>> paired_masks_;
-  std::vector<uint8_t> composite_;
+  std::unique_ptr<nn::DeepfakeBatchComposer> composer_;
 };
 
 // --------------------------------------------------------------------------------------------
@@ -792,25 +767,6 @@ StageSummary RunDeepfakeInfer(const DeepfakeInferOptions& o, const StageContext&
                               const io::Config& resolved) {
   nn::SetTorchThreads(ThreadsPerRank(o.threads));
   return DeepfakeInference(o, ctx, resolved).Run();
-}
-
-void RegisterDeepfake(CLI::App* app, AppState* state) {
-  CLI::App* deepfake = app->add_subcommand(
-      "deepfake", "The deepfake of paper 000 Sec. 4: train with gradient allreduce, translate frames");
-  deepfake->require_subcommand(1);
-  AddStage<DeepfakeTrainOptions>(
-      deepfake, state, "train", "deepfake.train", "deepfake train",
-      "Train E, D_A, D_B with the discriminators G_image and G_latent on A (synthetic renders) and "
-      "B (real frames), data-parallel across ranks with gradient allreduce; checkpoints, resumes, "
-      "progress lines with each loss, preview grid",
-      PathKeys{{"a", "b", "paired", "init"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunDeepfakeTrain));
-  AddStage<DeepfakeInferOptions>(
-      deepfake, state, "infer", "deepfake.infer", "deepfake infer",
-      "Translate frames with D(E(I)), store the codes E(I) and E(D(E(I))), and the region borders "
-      "of each translation as polylines with an overlay PNG; spread across ranks, resumable",
-      PathKeys{{"model", "frames", "camera"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunDeepfakeInfer));
 }
 
 }  // namespace facecap::stages

@@ -30,12 +30,10 @@
 #include "rig/compare.h"
 #include "rig/evaluate.h"
 #include "io/camera_file.h"
-#include "stages/cli.h"
 #include "io/frames_file.h"
 #include "stages/holdout.h"
 #include "stages/ingested_frames.h"
 #include "stages/tracked_rig.h"
-#include "stages/registry.h"
 #include "stages/rig_texture.h"
 #include "track/track_metrics.h"
 #include "util/errors.h"
@@ -549,64 +547,6 @@ StageSummary RunEvalRerender(const EvalRerenderOptions& o, const StageContext& c
   }
   if (!o.out.empty()) io::WriteFileAtomically(o.out, js.str() + "\n");
   return EvalJsonSummary(o.out);
-}
-
-CLI::App* GroupSubcommand(CLI::App* app, const std::string& name, const std::string& description) {
-  try {
-    return app->get_subcommand(name);
-  } catch (const CLI::OptionNotFound&) {
-    CLI::App* group = app->add_subcommand(name, description);
-    group->require_subcommand(1);
-    return group;
-  }
-}
-
-CLI::App* EvalSubcommand(CLI::App* app) {
-  return GroupSubcommand(app, "eval", "Metrics of an output against synthetic truth");
-}
-
-void RegisterEval(CLI::App* app, AppState* state) {
-  CLI::App* eval = EvalSubcommand(app);
-  AddStage<EvalTrackOptions>(
-      eval, state, "track", "eval.track", "eval track",
-      "Tracking accuracy against the truth, each beside the neutral face's: pose error (deg), "
-      "weight MAE (overall, over the truth's active weights, per shape), expression vertex "
-      "error (rigid pose and identity removed), landmark NME and vertex error over the "
-      "inter-ocular distance (outer eye corners 36, 45), seconds per frame; one JSON object",
-      PathKeys{{"truth", "track", "rig", "truth_rig"}, {{"out", OutputKind::kText}}},
-      StageCommand(RunEvalTrack));
-  AddStage<EvalLandmarksOptions>(
-      eval, state, "landmarks", "eval.landmarks", "eval landmarks",
-      "Real footage: the tracked rig's 68 landmarks against dlib's in source pixels, over the "
-      "detected outer-eye-corner distance, on all frames with a face and on the frames held "
-      "out of deepfake training apart; one JSON object (score against an independent "
-      "landmarker with export landmarks and analysis/compare_landmarks.py)",
-      PathKeys{{"frames", "track", "rig"}, {{"out", OutputKind::kText}}},
-      StageCommand(RunEvalLandmarks));
-  AddStage<EvalPersonOptions>(
-      eval, state, "person", "eval.person", "eval person",
-      "The person fit's neutral against the true person of a synthetic clip: vertex RMS after a "
-      "similarity alignment, in mm and over the inter-ocular distance, beside the generic head's "
-      "and the landmarks-only fit's; one JSON object",
-      PathKeys{{"truth", "person"}, {{"out", OutputKind::kText}}},
-      StageCommand(RunEvalPerson));
-  AddStage<EvalAppearanceOptions>(
-      eval, state, "appearance", "eval.appearance", "eval appearance",
-      "A captured texture against a synthetic person's true albedo: PSNR over the face region "
-      "of the UV map after one gain per colour channel (the clip's lighting is baked into any "
-      "capture), beside a flat texture of the capture's mean colour, and the coverage; one JSON "
-      "object",
-      PathKeys{{"truth", "texture", "naive"}, {{"out", OutputKind::kText}}},
-      StageCommand(RunEvalAppearance));
-  AddStage<EvalRerenderOptions>(
-      eval, state, "rerender", "eval.rerender", "eval rerender",
-      "Tracked footage re-rendered with a captured texture against the footage itself (no "
-      "truth needed, for real video): PSNR over the face pixels of held-out frames, each render "
-      "shaded by the frame's light (first-order in the surface normal, fitted per frame and "
-      "colour channel), beside the naive capture, the generic texture and a flat colour; one "
-      "JSON object",
-      PathKeys{{"views", "texture", "naive"}, {{"out", OutputKind::kText}}},
-      StageCommand(RunEvalRerender));
 }
 
 }  // namespace facecap::stages

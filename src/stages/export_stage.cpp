@@ -26,9 +26,7 @@
 #include "rig/arkit.h"
 #include "rig/evaluate.h"
 #include "synth/appearance.h"
-#include "stages/cli.h"
 #include "stages/parts_file.h"
-#include "stages/registry.h"
 #include "stages/rig_texture.h"
 #include "stages/tracked_rig.h"
 #include "util/errors.h"
@@ -487,37 +485,6 @@ StageSummary RunExportLandmarks(const ExportLandmarksOptions& o, const StageCont
   std::filesystem::rename(tmp, o.out);
   FC_INFO("export landmarks: {} frames ({} with landmarks) -> {}", frames.NumFrames(), written, o.out);
   return StageSummary{o.out, "frames", frames.NumFrames(), frames.NumFrames()};
-}
-
-void RegisterExport(CLI::App* app, AppState* state) {
-  CLI::App* exp = GroupSubcommand(app, "export", "Tracked animation to other tools' formats");
-  exp->require_subcommand(1);
-  AddStage<ExportLiveLinkOptions>(
-      exp, state, "livelink", "export.livelink", "export livelink",
-      "Live Link Face CSV: Timecode, BlendShapeCount, then 61 values per frame (the 52 ARKit "
-      "shapes matched by name, head yaw/pitch/roll, eye yaw/pitch/roll)",
-      PathKeys{{"track"}, {{"out", OutputKind::kCsv}}},
-      StageCommand(RunExportLiveLink));
-  AddStage<ExportGltfOptions>(
-      exp, state, "gltf", "export.gltf", "export gltf",
-      "glTF (.glb/.gltf) of the rig with one morph target per shape and the tracked weights as "
-      "a morph-target animation",
-      PathKeys{{"track", "rig"}, {{"out", OutputKind::kGltf}}},
-      StageCommand(RunExportGltf));
-  AddStage<ExportOverlayOptions>(
-      exp, state, "overlay", "export.overlay", "export overlay",
-      "mp4 of the tracked rig drawn over the frames it was tracked on (the source video's own "
-      "frames for a track of footage): segmentation colours blended in, region borders and "
-      "silhouette in white; optionally a contact sheet PNG",
-      PathKeys{{"track", "rig", "frames"}, {{"out", OutputKind::kVideo}, {"sheet", OutputKind::kImage}}},
-      StageCommand(RunExportOverlay));
-  AddStage<ExportLandmarksOptions>(
-      exp, state, "landmarks", "export.landmarks", "export landmarks",
-      "CSV of the tracked rig's 68 landmarks (iBUG order) in the source video's pixels, one row "
-      "per ingested frame (frames without a face: empty coordinates), so that other tools can "
-      "score the tracking",
-      PathKeys{{"track", "rig", "frames"}, {{"out", OutputKind::kCsv}}},
-      StageCommand(RunExportLandmarks));
 }
 
 }  // namespace facecap::stages

@@ -8,10 +8,8 @@
 
 #include "face/align.h"
 #include "face/frame_source.h"
-#include "stages/cli.h"
 #include "stages/frame_loop.h"
 #include "io/frames_file.h"
-#include "stages/registry.h"
 #include "stages/resumable.h"
 #include "util/bytes.h"
 #include "util/errors.h"
@@ -516,17 +514,6 @@ IngestSummary RunIngest(const IngestOptions& o, const StageContext& ctx, const i
   const auto start = std::chrono::steady_clock::now();
   IngestRun run(o, ctx, resolved);
   return run.Run(start);
-}
-
-void RegisterIngest(CLI::App* app, AppState* state) {
-  AddStage<IngestOptions>(
-      app, state, "ingest", "ingest", "ingest",
-      "Real footage to frames.h5: a video (--video) or image folder (--images), faces detected "
-      "with dlib, one subject followed, 68 landmarks, similarity-aligned crops, source file, "
-      "frame index and timecode per frame; spread across ranks, identical for any rank count, "
-      "resumable",
-      PathKeys{{"video", "images", "landmark_model"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunIngest));
 }
 
 }  // namespace facecap::stages

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <iostream>
 #include <sstream>
+#include <utility>
 
 #include "stages/lipsync_stage.h"
 
@@ -25,9 +26,7 @@
 #include "rig/compare.h"
 #include "rig/pose.h"
 #include "io/camera_file.h"
-#include "stages/cli.h"
-#include "io/frames_file.h"
-#include "stages/registry.h"
+#include "io/clip_file.h"
 #include "stages/speech_file.h"
 #include "stages/track_file.h"
 #include "util/errors.h"
@@ -252,14 +251,15 @@ StageSummary RunEvalLipsync(const EvalLipsyncOptions& o, const StageContext& ctx
   LipsyncTruth truth;
   {
     io::H5File f = io::H5File::OpenRead(o.truth);
-    for (const char* name : {io::frames::kWeights, io::frames::kShapeNames, io::frames::kPose, "/rig/neutral"}) {
-      if (!f.Exists(name)) throw FileIOError(o.truth + ": no " + std::string(name) + " (not a clip from synth clip?)");
+    io::ClipTruth clip = io::ReadClipTruth(f);
+    if (!f.Exists("/rig/neutral")) {
+      throw FileIOError(o.truth + ": no /rig/neutral (not a clip from synth clip?)");
     }
     truth.rig = io::ReadRig(f);
-    truth.names = f.ReadStrings(io::frames::kShapeNames);
-    truth.weights = f.ReadMatrix<float>(io::frames::kWeights);
-    truth.pose = f.ReadMatrix<float>(io::frames::kPose);
-    truth.fps = io::HasCamera(f) ? io::ReadCamera(f).fps.value_or(0.) : 0.;
+    truth.names = std::move(clip.names);
+    truth.weights = std::move(clip.weights);
+    truth.pose = std::move(clip.pose);
+    truth.fps = clip.fps;
     if (!(truth.fps > 0.)) throw FileIOError(o.truth + ": no frame rate (" + io::kCameraPath + "@fps)");
     if (truth.names.size() != static_cast<size_t>(truth.rig.NumShapes()) ||
         truth.weights.cols() != truth.rig.NumShapes()) {
@@ -331,38 +331,6 @@ StageSummary RunEvalLipsync(const EvalLipsyncOptions& o, const StageContext& ctx
   // The JSON file at out, counted when written (out empty: the JSON was only printed).
   const int64_t files = o.out.empty() ? 0 : 1;
   return StageSummary{o.out, "files", files, files};
-}
-
-CLI::App* LipsyncSubcommand(CLI::App* app) {
-  return GroupSubcommand(app, "lipsync",
-                         "Lip-sync (paper 000 Sec. 8.1): the mouth from a second source, blended "
-                         "into the video's solve");
-}
-
-void RegisterLipsync(CLI::App* app, AppState* state) {
-  CLI::App* lipsync = LipsyncSubcommand(app);
-  AddStage<LipsyncBlendOptions>(
-      lipsync, state, "blend", "lipsync.blend", "lipsync blend",
-      "The video's solve with its mouth controls cross-faded towards a mouth source's (lipsync "
-      "track of a frontal lip video), the source aligned in time by the sound of both videos "
-      "(or offset_seconds); pose and every other control stay the video's; a track file",
-      PathKeys{{"track", "mouth", "video", "mouth_video"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunLipsyncBlend));
-  AddStage<LipsyncAudioOptions>(
-      lipsync, state, "audio", "lipsync.audio", "lipsync audio",
-      "A mouth source from the video's own sound: phones recognized offline by pocketsphinx "
-      "(freely, or aligned to a transcript), mapped to visemes and to the rig's ARKit mouth "
-      "controls through dominance-function coarticulation; a track file for lipsync blend",
-      PathKeys{{"video", "rig", "model_dir"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunLipsyncAudio));
-  CLI::App* eval = EvalSubcommand(app);
-  AddStage<EvalLipsyncOptions>(
-      eval, state, "lipsync", "eval.lipsync", "eval lipsync",
-      "Tracks of a talking clip against its truth: mouth-control and upper-face-control MAE, "
-      "pose error, and lip closures (the truth rig's inner lips meeting) found within a "
-      "tolerance (F1), beside the neutral mouth",
-      PathKeys{{"truth", "tracks"}, {{"out", OutputKind::kText}, {"gaps", OutputKind::kCsv}}},
-      StageCommand(RunEvalLipsync));
 }
 
 }  // namespace facecap::stages

@@ -25,12 +25,10 @@
 #include "render/framing.h"
 #include "render/landmark_calibration.h"
 #include "rig/evaluate.h"
-#include "stages/cli.h"
 #include "stages/frame_loop.h"
 #include "io/frames_file.h"
 #include "stages/ingested_frames.h"
 #include "stages/person_file.h"
-#include "stages/registry.h"
 #include "stages/resumable.h"
 #include "track/person_fit.h"
 #include "util/bytes.h"
@@ -616,21 +614,6 @@ StageSummary RunPersonFit(const PersonFitStageOptions& o, const StageContext& ct
   // The person's rig: identity applied, shapes moved by deformation transfer.
   WritePersonRig(setup, fit_state, &output);
   return summary;
-}
-
-void RegisterPerson(CLI::App* app, AppState* state) {
-  CLI::App* person = app->add_subcommand("person", "The person's own rig from their footage");
-  person->require_subcommand(1);
-  AddStage<PersonFitStageOptions>(
-      person, state, "fit", "person.fit", "person fit",
-      "The person's neutral geometry from many frames (paper 000 Sec. 5.1): the generic rig's "
-      "identity modes fitted by inverse rendering of the segmentation translations, jointly "
-      "with the pose and expression of frames chosen for pose variety (a fit to ingest's 68 "
-      "landmarks kept beside as a baseline, and the person's own landmark vertices); the "
-      "rig's shapes moved onto the person by deformation transfer. Frames spread across "
-      "ranks, the same result for any rank count, resumable",
-      PathKeys{{"rig", "frames", "translations"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunPersonFit));
 }
 
 }  // namespace facecap::stages

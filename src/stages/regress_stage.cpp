@@ -14,15 +14,14 @@
 #include "io/config.h"
 #include "io/hdf5.h"
 #include "io/rig_io.h"
+#include "io/translations_file.h"
 #include "nn/deepfake.h"
 #include "nn/regressor.h"
 #include "render/framing.h"
 #include "rig/evaluate.h"
-#include "stages/cli.h"
 #include "stages/frame_loop.h"
 #include "io/frames_file.h"
 #include "stages/ingested_frames.h"
-#include "stages/registry.h"
 #include "stages/resumable.h"
 #include "stages/sample_file.h"
 #include "stages/stage.h"
@@ -108,12 +107,8 @@ face::FaceBox TypicalCropBox(const std::string& path, const IngestedFrames& inge
 // 256 pixels, as fractions of the image: [rows, 51, 2].
 std::vector<float> LandmarksOfTranslations(const std::string& path, const std::vector<int64_t>& rows,
                                            const face::FaceBox& box, int threads) {
-  const io::H5File f = io::H5File::OpenRead(path);
-  if (!f.Exists(io::frames::kTranslated)) {
-    throw FileIOError(path + ": no /frames/translated (an output of deepfake infer is expected)");
-  }
-  const io::Shape shape = f.CheckShape(io::frames::kTranslated, {-1, -1, -1, 3});
-  const int height = static_cast<int>(shape[1]), width = static_cast<int>(shape[2]);
+  const io::TranslationsFile f(path);
+  const int height = f.size(), width = f.size();  // square
   const int upsample = std::clamp(256 / std::max(1, width), 1, 16);
   face::FaceBox pixels;
   pixels.x = box.x * width - 0.5f;
@@ -124,14 +119,14 @@ std::vector<float> LandmarksOfTranslations(const std::string& path, const std::v
   analyzers[0] = std::make_unique<face::FaceAnalyzer>();
   for (size_t t = 1; t < analyzers.size(); ++t) analyzers[t] = analyzers[0]->Clone();
   // Read first (the HDF5 library is not thread-safe), fitted on the threads.
-  const std::vector<uint8_t> images = f.Read<uint8_t>(io::frames::kTranslated, shape);
+  const std::vector<uint8_t> images = f.ReadAll();
   const size_t image_size = static_cast<size_t>(width) * height * 3;
   std::vector<float> out(rows.size() * 2 * kLandmarks);
   const int chunks = static_cast<int>(analyzers.size());
   ParallelFor(0, chunks, chunks, [&](int t) {
     Image8 translated(width, height, 3);
     for (size_t r = static_cast<size_t>(t); r < rows.size(); r += static_cast<size_t>(chunks)) {
-      if (rows[r] < 0 || rows[r] >= shape[0]) throw FileIOError(path + ": no translation of row " + std::to_string(rows[r]));
+      if (rows[r] < 0 || rows[r] >= f.count()) throw FileIOError(path + ": no translation of row " + std::to_string(rows[r]));
       std::copy_n(images.begin() + static_cast<int64_t>(rows[r] * image_size), image_size, translated.data.begin());
       const face::Landmarks l = analyzers[t]->FitLandmarks(translated, pixels, upsample);
       for (int k = 0; k < kLandmarks; ++k) {
@@ -730,27 +725,6 @@ StageSummary RunRegressInfer(const RegressInferOptions& o, const StageContext& c
                              const io::Config& resolved) {
   nn::SetTorchThreads(1);
   return RegressInference(o, ctx, resolved).Run();
-}
-
-void RegisterRegress(CLI::App* app, AppState* state) {
-  CLI::App* regress = app->add_subcommand(
-      "regress", "The personalized regressor of paper 000 Sec. 9: pose and controls from a frame's deepfake code");
-  regress->require_subcommand(1);
-  AddStage<RegressTrainOptions>(
-      regress, state, "train", "regress.train", "regress train",
-      "Train P (pose), J (jaw controls) and W (the other controls) on the codes E(D_S(E(I))) of the synthetic "
-      "samples against their truth; optionally the paper's phases 2 and 3: L (landmarks) on the samples' landmarks, "
-      "then P, J, W again with L frozen, the footage crops' detected landmarks as weak supervision. Data-parallel "
-      "over ranks (gradient allreduce), checkpoints, resume",
-      PathKeys{{"samples", "sample_codes", "frame_codes", "frames", "track", "rig"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunRegressTrain));
-  AddStage<RegressInferOptions>(
-      regress, state, "infer", "regress.infer", "regress infer",
-      "Each frame's pose and controls from its code by the trained regressor, the head placed on the detected "
-      "landmarks; a track file in the source camera that exports and eval track read. Frames spread across ranks, "
-      "resumable",
-      PathKeys{{"model", "codes", "frames", "rig"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunRegressInfer));
 }
 
 }  // namespace facecap::stages

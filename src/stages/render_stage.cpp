@@ -21,8 +21,6 @@
 #include "render/rasterizer.h"
 #include "render/shading.h"
 #include "rig/evaluate.h"
-#include "stages/cli.h"
-#include "stages/registry.h"
 #include "stages/rig_texture.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -271,15 +269,6 @@ StageSummary RunRender(const RenderStageOptions& o, const StageContext& ctx,
           o.out);
   summary.items = summary.computed = 2;  // the sheet and its captions
   return summary;
-}
-
-void RegisterRender(CLI::App* app, AppState* state) {
-  AddStage<RenderStageOptions>(
-      app, state, "render", "render", "render",
-      "Render a rig at a pose and shape weights (segmentation, shaded, UV or depth) to PNG/EXR, "
-      "or with --sheet a contact sheet of the neutral and expressions",
-      PathKeys{{"rig"}, {{"out", OutputKind::kImage}, {"mesh_out", OutputKind::kMesh}}},
-      StageCommand(RunRender));
 }
 
 }  // namespace facecap::stages

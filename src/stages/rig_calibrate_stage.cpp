@@ -17,9 +17,7 @@
 #include "render/landmark_calibration.h"
 #include "rig/demo_head.h"
 #include "rig/evaluate.h"
-#include "stages/cli.h"
 #include "stages/frame_loop.h"
-#include "stages/registry.h"
 #include "synth/clip.h"
 #include "util/bytes.h"
 #include "util/errors.h"
@@ -164,16 +162,6 @@ StageSummary RunRigCalibrate(const RigCalibrateOptions& o, const StageContext& c
   });
   // Every view is rendered and detected by every run (the stage does not resume).
   return StageSummary{o.out, "views", views, views};
-}
-
-void RegisterRigCalibrate(CLI::App* rig, AppState* state) {
-  AddStage<RigCalibrateOptions>(
-      rig, state, "calibrate", "rig.calibrate", "rig calibrate",
-      "Place the rig's 68 landmark vertices where dlib's detector finds the iBUG points on "
-      "renders of people made of the rig (poses, expressions, lighting), so that fits to dlib's "
-      "landmarks on footage measure the face, not the difference of conventions",
-      PathKeys{{"rig", "landmark_model"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunRigCalibrate));
 }
 
 }  // namespace facecap::stages

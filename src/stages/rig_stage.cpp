@@ -10,9 +10,7 @@
 #include "rig/arkit.h"
 #include "rig/demo_head.h"
 #include "rig/perturb.h"
-#include "stages/cli.h"
 #include "stages/parts_file.h"
-#include "stages/registry.h"
 #include "stages/rig_texture.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -106,35 +104,6 @@ StageSummary RunRigExport(const RigExportOptions& o, const StageContext& ctx,
   }
   summary.computed = summary.items;
   return summary;
-}
-
-void RegisterRig(CLI::App* app, AppState* state) {
-  CLI::App* rig = app->add_subcommand("rig", "Make, import and export face rigs");
-  rig->require_subcommand(1);
-
-  AddStage<RigDemoOptions>(
-      rig, state, "demo", "rig.demo", "rig demo",
-      "Generate the procedural demo head: a closed mesh with eyes, eyelids, lips and a mouth "
-      "opening, 12+ segmentation regions, the 68 iBUG landmarks, the 52 ARKit shapes (jaw "
-      "shapes through jaw skinning) and identity modes",
-      PathKeys{{}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunRigDemo));
-  AddStage<RigImportOptions>(
-      rig, state, "import", "rig.import", "rig import",
-      "Import a rig from an OBJ folder (neutral.obj + <shape>.obj) or a glTF file with morph "
-      "targets",
-      PathKeys{{"obj_dir", "gltf"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunRigImport));
-  AddStage<RigPerturbOptions>(
-      rig, state, "perturb", "rig.perturb", "rig perturb",
-      "The rig with its neutral displaced by a smooth random field of a given RMS (a known "
-      "geometry error, to measure how a stage copes with imperfect geometry); shapes follow",
-      PathKeys{{"rig"}, {{"out", OutputKind::kHdf5}}}, StageCommand(RunRigPerturb));
-  AddStage<RigExportOptions>(rig, state, "export", "rig.export", "rig export",
-                             "Export a rig to OBJ files and/or glTF",
-      PathKeys{{"rig"}, {{"obj_dir", OutputKind::kFolder}, {"gltf", OutputKind::kGltf}}},
-      StageCommand(RunRigExport));
-  RegisterRigCalibrate(rig, state);
 }
 
 }  // namespace facecap::stages

@@ -10,9 +10,7 @@
 #include "io/image_io.h"
 #include "nn/augment.h"
 #include "render/contact_sheet.h"
-#include "stages/cli.h"
 #include "io/frames_file.h"
-#include "stages/registry.h"
 #include "stages/sample_file.h"
 #include "stages/stage_paths.h"
 #include "synth/sample_set.h"
@@ -190,18 +188,6 @@ StageSummary RunSynthContract(const SynthContractOptions& o, const StageContext&
           "each beside its nearest real frame; green kept, red removed)",
           sheet_path);
   return summary;
-}
-
-void RegisterSynthContract(CLI::App* synth, AppState* state) {
-  AddStage<SynthContractOptions>(
-      synth, state, "contract", "synth.contract", "synth contract",
-      "Contract a random sample set (paper 000 Sec. 7.1): a sample whose deepfake code lies far "
-      "from every real frame's (mean distance to the k nearest) is out of distribution; the "
-      "remove_fraction highest-scoring samples are removed, with a contact sheet of the most "
-      "and least in-distribution samples beside their nearest real frames",
-      PathKeys{{"samples", "sample_codes", "frame_codes", "frames", "bound"},
-               {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunSynthContract));
 }
 
 }  // namespace facecap::stages

@@ -38,9 +38,7 @@
 #include "io/rig_io.h"
 #include "render/shading.h"
 #include "rig/demo_head.h"
-#include "stages/cli.h"
 #include "stages/frame_loop.h"
-#include "stages/registry.h"
 #include "stages/resumable.h"
 #include "synth/skin_dynamics.h"
 #include "util/errors.h"
@@ -404,24 +402,6 @@ StageSummary RunScansImport(const ScansImportOptions& o, const StageContext& ctx
     }
   });
   return summary;
-}
-
-void RegisterScans(CLI::App* app, AppState* state) {
-  CLI::App* scans = app->add_subcommand("scans", "Scan databases of people and FACS expressions");
-  scans->require_subcommand(1);
-  AddStage<ScansSynthOptions>(
-      scans, state, "synth", "scans.synth", "scans synth",
-      "Synthetic scan database: people from the demo head's identity modes, personal blendshapes "
-      "that depend on identity, FACS expression scans with unwanted motion and noise; the true "
-      "personal shapes are stored for evaluation",
-      PathKeys{{}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunScansSynth));
-  AddStage<ScansImportOptions>(
-      scans, state, "import", "scans.import", "scans import",
-      "Registered OBJ scans (one per person and expression, listed in a labels CSV) into the scan "
-      "database layout",
-      PathKeys{{"labels", "template_rig"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunScansImport));
 }
 
 }  // namespace facecap::stages

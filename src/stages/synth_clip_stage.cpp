@@ -15,11 +15,9 @@
 #include "render/contact_sheet.h"
 #include "rig/demo_head.h"
 #include "io/camera_file.h"
-#include "stages/cli.h"
 #include "stages/frame_loop.h"
 #include "io/frames_file.h"
 #include "stages/frames_video.h"
-#include "stages/registry.h"
 #include "stages/resumable.h"
 #include "stages/speech_file.h"
 #include "synth/appearance.h"
@@ -423,23 +421,6 @@ StageSummary RunSynthSheet(const SynthSheetOptions& o, const StageContext& ctx,
   io::WriteImage(o.out, render::ContactSheet(tiles, sheet));
   FC_INFO("synth sheet: {} frames of {} (wild | segmentation) -> {}", shown, o.clip, o.out);
   return StageSummary{o.out, "files", 1, 1};
-}
-
-void RegisterSynthClip(CLI::App* synth, AppState* state) {
-  AddStage<SynthClipOptions>(
-      synth, state, "clip", "synth.clip", "synth clip",
-      "A wild clip of one person (identity_seed): a smooth random or scripted performance of "
-      "expressions and head motion, skin-like texture, moving lights, backgrounds, blur, noise "
-      "and JPEG, with the true pose, weights, landmarks and segmentation of every frame; "
-      "spread across ranks, identical for any rank count, resumable; --video adds an mp4",
-      PathKeys{{"rig", "background_folder"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunSynthClip));
-  AddStage<SynthSheetOptions>(
-      synth, state, "sheet", "synth.sheet", "synth sheet",
-      "Contact sheet of a clip's wild frames, each beside the segmentation render of the same "
-      "frame (with its visible true landmarks)",
-      PathKeys{{"clip"}, {{"out", OutputKind::kImage}}},
-      StageCommand(RunSynthSheet));
 }
 
 }  // namespace facecap::stages

@@ -12,10 +12,8 @@
 #include "stages/synth_crops_stage.h"
 
 #include "io/hdf5.h"
-#include "stages/cli.h"
 #include "io/frames_file.h"
 #include "stages/ingested_frames.h"
-#include "stages/registry.h"
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/progress.h"
@@ -129,16 +127,6 @@ StageSummary RunSynthCrops(const SynthCropsOptions& o, const StageContext& ctx,
   FC_INFO("synth crops: {} frames ({} with a face) -> {}", n,
           std::count(found.begin(), found.end(), uint8_t{1}), o.out);
   return StageSummary{o.out, "frames", n, n};
-}
-
-void RegisterSynthCrops(CLI::App* synth, AppState* state) {
-  AddStage<SynthCropsOptions>(
-      synth, state, "crops", "synth.crops", "synth crops",
-      "A synthetic clip as ingest cropped its video: the crops beside the clip's segmentation "
-      "warped by the same crop transforms, with the regions (paired deepfake examples in the "
-      "framing of real crops; the true segmentation of a clip's crops for oracle solves)",
-      PathKeys{{"clip", "frames"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunSynthCrops));
 }
 
 }  // namespace facecap::stages

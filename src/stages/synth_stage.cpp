@@ -14,11 +14,9 @@
 #include "render/landmarks.h"
 #include "render/rasterizer.h"
 #include "rig/evaluate.h"
-#include "stages/cli.h"
 #include "stages/crop_framing.h"
 #include "stages/frame_loop.h"
 #include "stages/ingested_frames.h"
-#include "stages/registry.h"
 #include "stages/resumable.h"
 #include "stages/sample_file.h"
 #include "synth/sample_set.h"
@@ -349,30 +347,6 @@ StageSummary RunSynthExpand(const SynthExpandOptions& o, const StageContext& ctx
   }
   sparsity = run.sparsity();
   return run.Run();
-}
-
-void RegisterSynth(CLI::App* app, AppState* state) {
-  CLI::App* synth = app->add_subcommand("synth", "Synthetic data with known truth");
-  synth->require_subcommand(1);
-  AddStage<SynthSamplesOptions>(
-      synth, state, "samples", "synth.samples", "synth samples",
-      "Random rig samples (controls uniform under per-region sparsity limits, pose from a "
-      "truncated Gaussian) rendered as segmentation images with landmarks; spread across ranks, "
-      "identical for any rank count, resumable",
-      PathKeys{{"rig"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunSynthSamples));
-  AddStage<SynthExpandOptions>(
-      synth, state, "expand", "synth.expand", "synth expand",
-      "Expand a contracted sample set (paper 000 Sec. 7.2): the real frames whose deepfake codes "
-      "lie farthest from every sample's are gaps; the tracker's solutions on them, jittered per "
-      "control (D w, d_i in [jitter_low, jitter_high]) and interpolated between pairs, are "
-      "rendered as new samples with the set's own sampling options; identical for any rank "
-      "count, resumable",
-      PathKeys{{"rig", "samples", "frame_codes", "track"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunSynthExpand));
-  RegisterSynthContract(synth, state);
-  RegisterSynthClip(synth, state);
-  RegisterSynthCrops(synth, state);
 }
 
 }  // namespace facecap::stages

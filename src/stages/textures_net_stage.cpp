@@ -13,9 +13,7 @@
 #include "nn/blendshape_generator.h"
 #include "nn/texture_net.h"
 #include "rig/evaluate.h"
-#include "stages/cli.h"
 #include "stages/frame_loop.h"
-#include "stages/registry.h"
 #include "stages/resumable.h"
 #include "stages/rig_texture.h"
 #include "stages/stage.h"
@@ -267,25 +265,6 @@ StageSummary RunTexturesInfer(const TexturesInferOptions& o, const StageContext&
   FC_INFO("textures infer: {} predicted expression textures {}x{}, library -> {}", K, S, S, o.out);
   summary.computed = 1;
   return summary;
-}
-
-void RegisterTexturesNetworks(CLI::App* app, AppState* state) {
-  CLI::App* textures = GroupSubcommand(app, "textures", "Dynamic textures (paper 001 Sec. 5)");
-  AddStage<TexturesTrainOptions>(
-      textures, state, "train", "textures.train", "textures train",
-      "The expression texture networks (paper 001 Fig. 7) on a textured scan database's training people: the first "
-      "predicts an expression's albedo offset from the neutral maps, the neutral geometry image and the expression's "
-      "offset geometry image and influences; the second the specular and displacement offsets from those and the "
-      "first's prediction. Data-parallel over ranks (gradient allreduce), checkpoints, resume",
-      PathKeys{{"scans"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunTexturesTrain));
-  AddStage<TexturesInferOptions>(
-      textures, state, "infer", "textures.infer", "textures infer",
-      "A person's dynamic texture library from their neutral skin maps and rig alone: the networks predict the "
-      "textures of the model's FACS expressions of the rig, and compress and stretch maps are fitted to them for the "
-      "strain texture (a textured rig that render draws and export textures plays)",
-      PathKeys{{"model", "rig", "scans"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunTexturesInfer));
 }
 
 }  // namespace facecap::stages

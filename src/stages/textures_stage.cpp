@@ -14,8 +14,6 @@
 #include "io/image_io.h"
 #include "io/rig_io.h"
 #include "rig/evaluate.h"
-#include "stages/cli.h"
-#include "stages/registry.h"
 #include "stages/frame_loop.h"
 #include "stages/resumable.h"
 #include "stages/rig_texture.h"
@@ -484,34 +482,6 @@ StageSummary RunExportTextures(const ExportTexturesOptions& o, const StageContex
             S, o.out, total_kept);
   }
   return StageSummary{o.out, "frames", F, F - static_cast<int64_t>(total_kept)};
-}
-
-void RegisterTextures(CLI::App* app, AppState* state) {
-  AddStage<ExportTexturesOptions>(
-      GroupSubcommand(app, "export", "Tracked animation to other tools' formats"), state, "textures", "export.textures",
-      "export textures",
-      "A tracked take's dynamic textures (the strain texture at each frame's weights) as EXR sequences of albedo, "
-      "specular and "
-      "displacement, frames spread across ranks",
-      PathKeys{{"library", "track"}, {{"out", OutputKind::kFolder}}},
-      StageCommand(RunExportTextures));
-  CLI::App* textures = GroupSubcommand(app, "textures", "Dynamic textures (paper 001 Sec. 5)");
-  AddStage<TexturesLibraryOptions>(
-      textures, state, "library", "textures.library", "textures library",
-      "A person's dynamic texture library from their expression scans and skin maps: compress and stretch maps "
-      "fitted for the strain texture (eq. 10-13's influences and references) and the rig shapes' influences; "
-      "writes a textured rig that render draws with the texture of its weights and export textures plays over a "
-      "take",
-      PathKeys{{"scans", "rig"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunTexturesLibrary));
-  AddStage<EvalTexturesOptions>(
-      EvalSubcommand(app), state, "textures", "eval.textures", "eval textures",
-      "Dynamic textures (paper 001 eq. 10-14) on the held-out people of a textured scan database: PSNR "
-      "of albedo, specular and displacement against the true expression textures where the "
-      "expression moves the skin, beside the static neutral texture and per-blendshape maps, and "
-      "the library's size against theirs; one JSON object",
-      PathKeys{{"scans", "model"}, {{"out", OutputKind::kText}, {"maps", OutputKind::kHdf5}}},
-      StageCommand(RunEvalTextures));
 }
 
 }  // namespace facecap::stages

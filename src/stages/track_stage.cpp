@@ -20,9 +20,7 @@
 #include "stages/track_file.h"
 #include "stages/person_file.h"
 #include "rig/arkit.h"
-#include "stages/cli.h"
 #include "stages/frame_loop.h"
-#include "stages/registry.h"
 #include "stages/resumable.h"
 #include "track/tracker.h"
 #include "util/bytes.h"
@@ -435,27 +433,6 @@ StageSummary RunLipsyncTrack(const LipsyncTrackOptions& o, const StageContext& c
     if (ctx.comm.IsMainRank()) FilterLipTrack(o.out, o.frames, o.filter);
   });
   return summary;
-}
-
-void RegisterTrack(CLI::App* app, AppState* state) {
-  AddStage<TrackOptions>(
-      app, state, "track", "track", "track",
-      "Inverse-rendering tracking (paper 000 Sec. 8): per frame, the rig's rigid pose and "
-      "controls that make its soft segmentation render match the target, by block coordinate "
-      "descent (pose, jaw, rest) with Ceres; frames spread across ranks by a dynamic work "
-      "queue, identical for any rank count, resumable",
-      PathKeys{{"rig", "targets", "frames"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunTrack));
-  AddStage<LipsyncTrackOptions>(
-      LipsyncSubcommand(app), state, "track", "lipsync.track", "lipsync track",
-      "The mouth of a frontal lip video (a lip-sync network's output, a second camera): "
-      "ingested and translated as any footage (its frames and translations), then solved as "
-      "track does with the head held frontal (its position solved) and every control outside "
-      "the mouth group (solve_controls) at the neutral; then zeroed on the frames where its "
-      "sound is silent (the mouth at rest) and one-frame flicker removed; writes a track file "
-      "for lipsync blend",
-      PathKeys{{"rig", "targets", "frames", "sound"}, {{"out", OutputKind::kHdf5}}},
-      StageCommand(RunLipsyncTrack));
 }
 
 }  // namespace facecap::stages

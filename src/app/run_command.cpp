@@ -6,13 +6,18 @@
 #include <iostream>
 
 #include "io/hdf5.h"
-#include "stages/cli.h"
-#include "stages/registry.h"
+#include "app/cli.h"
+#include "app/commands.h"
+#include "app/registry.h"
 #include "util/errors.h"
 #include "util/log.h"
 
-namespace facecap::stages {
+namespace facecap::app {
 namespace {
+
+using stages::CheckJobPaths;
+using stages::CheckStagePaths;
+using stages::StagePaths;
 
 struct RunFlags {
   std::string job;
@@ -237,4 +242,4 @@ void RegisterRun(CLI::App* app, AppState* state) {
   sub->callback([=] { RunJob(*flags, state); });
 }
 
-}  // namespace facecap::stages
+}  // namespace facecap::app

@@ -6,10 +6,11 @@
 
 #include "dist/comm.h"
 #include "io/hdf5_info.h"
-#include "stages/registry.h"
+#include "app/commands.h"
+#include "app/registry.h"
 #include "util/version.h"
 
-namespace facecap::stages {
+namespace facecap::app {
 
 std::string VersionReport(const dist::Comm& comm) {
   std::ostringstream os;
@@ -38,4 +39,4 @@ void RegisterVersion(CLI::App* app, AppState* state) {
   });
 }
 
-}  // namespace facecap::stages
+}  // namespace facecap::app

@@ -1,7 +1,7 @@
 // The subcommand table. Each Register* adds one subcommand (with its --help text and flags)
 // and the callback that runs its controller.
-#ifndef FACECAP_STAGES_REGISTRY_H_
-#define FACECAP_STAGES_REGISTRY_H_
+#ifndef FACECAP_APP_REGISTRY_H_
+#define FACECAP_APP_REGISTRY_H_
 
 #include <functional>
 #include <list>
@@ -14,10 +14,10 @@
 #include <CLI/CLI.hpp>
 
 #include "dist/comm.h"
-#include "stages/cli.h"
+#include "app/cli.h"
 #include "stages/stage_paths.h"
 
-namespace facecap::stages {
+namespace facecap::app {
 
 template <typename T, typename = void>
 struct HasOut : std::false_type {};
@@ -25,18 +25,19 @@ template <typename T>
 struct HasOut<T, std::void_t<decltype(std::declval<T>().out)>> : std::true_type {};
 
 // Options may name files they write beside their options (OUT.checkpoint, a preview):
-//   void DerivedOutputs(std::vector<NamedPath>* outputs) const;
+//   void DerivedOutputs(std::vector<stages::NamedPath>* outputs) const;
 template <typename T, typename = void>
 struct HasDerivedOutputs : std::false_type {};
 template <typename T>
 struct HasDerivedOutputs<T, std::void_t<decltype(std::declval<const T&>().DerivedOutputs(
-                                std::declval<std::vector<NamedPath>*>()))>> : std::true_type {};
+                                std::declval<std::vector<stages::NamedPath>*>()))>> : std::true_type {};
 
 // The files named by `options` under `keys`: std::logic_error when a key is not an option
 // of the struct or not a text option (a mistake in the stage's registration).
 template <typename Options>
-StagePaths PathsOf(const Options& options, const std::string& table, const PathKeys& keys) {
-  StagePaths paths;
+stages::StagePaths PathsOf(const Options& options, const std::string& table,
+                           const stages::PathKeys& keys) {
+  stages::StagePaths paths;
   paths.table = table;
   auto take = [&](const std::string& key, std::vector<std::string>* values) {
     bool found = false;
@@ -61,7 +62,7 @@ StagePaths PathsOf(const Options& options, const std::string& table, const PathK
     if (values.empty()) values.emplace_back();
     for (const std::string& v : values) paths.inputs.push_back({key, v});
   }
-  for (const OutputKey& output : keys.outputs) {
+  for (const stages::OutputKey& output : keys.outputs) {
     std::vector<std::string> values;
     take(output.key, &values);
     if (values.empty()) values.emplace_back();
@@ -85,8 +86,8 @@ struct StageSpec {
   // `facecap run` checks for inputs newer than the output.
   std::function<std::vector<std::string>(const io::Config&, const std::string& table)> texts;
   // The files the stage reads and writes with the options of `table`.
-  std::function<StagePaths(const io::Config&, const std::string& table)> paths;
-  PathKeys path_keys;  // the options that name them
+  std::function<stages::StagePaths(const io::Config&, const std::string& table)> paths;
+  stages::PathKeys path_keys;  // the options that name them
 };
 
 // Collects the text (std::string) options of an options struct through its Visit.
@@ -116,9 +117,9 @@ struct AppState {
 // resolved from the defaults, the job file, --set and the flags, then the stage run.
 template <typename Options, typename Summary>
 std::function<void(const StageFlags&, AppState*)> StageCommand(
-    Summary (*run)(const Options&, const StageContext&, const io::Config&)) {
+    Summary (*run)(const Options&, const stages::StageContext&, const io::Config&)) {
   return [run](const StageFlags& flags, AppState* state) {
-    StageContext ctx{state->comm, {}, state->command_line};
+    stages::StageContext ctx{state->comm, {}, state->command_line};
     io::Config resolved;
     const Options options = ResolveStageOptions<Options>(flags, &ctx, &resolved);
     run(options, ctx, resolved);
@@ -132,7 +133,7 @@ std::function<void(const StageFlags&, AppState*)> StageCommand(
 template <typename Options>
 CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
                    const std::string& table, const std::string& command,
-                   const std::string& description, const PathKeys& paths,
+                   const std::string& description, const stages::PathKeys& paths,
                    std::function<void(const StageFlags&, AppState*)> run) {
   PathsOf(Options(), table, paths);  // every key named is a text option of Options
   StageFlags* flags = state->NewFlags();
@@ -143,7 +144,7 @@ CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
   auto checked_run = [=](const StageFlags& f) {
     Options options;
     io::LoadOptions(BuildConfig(f), f.table, &options);
-    CheckStagePaths(PathsOf(options, f.table, paths));
+    stages::CheckStagePaths(PathsOf(options, f.table, paths));
     run(f, state);
   };
   sub->callback([=] { checked_run(*flags); });
@@ -174,49 +175,6 @@ CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
   return sub;
 }
 
-void RegisterVersion(CLI::App* app, AppState* state);
-void RegisterRig(CLI::App* app, AppState* state);
-// `rig calibrate`, under the `rig` subcommand made by RegisterRig.
-void RegisterRigCalibrate(CLI::App* rig, AppState* state);
-void RegisterRender(CLI::App* app, AppState* state);
-void RegisterSynth(CLI::App* app, AppState* state);
-// `synth contract`, under the `synth` subcommand made by RegisterSynth.
-void RegisterSynthContract(CLI::App* synth, AppState* state);
-// `synth clip` and `synth sheet`, under the `synth` subcommand made by RegisterSynth.
-void RegisterSynthClip(CLI::App* synth, AppState* state);
-// `synth crops`, under the `synth` subcommand.
-void RegisterSynthCrops(CLI::App* synth, AppState* state);
-void RegisterIngest(CLI::App* app, AppState* state);
-void RegisterAssemble(CLI::App* app, AppState* state);
-void RegisterCurate(CLI::App* app, AppState* state);
-void RegisterDeepfake(CLI::App* app, AppState* state);
-void RegisterExport(CLI::App* app, AppState* state);
-void RegisterScans(CLI::App* app, AppState* state);
-void RegisterBlendshapes(CLI::App* app, AppState* state);
-void RegisterTrack(CLI::App* app, AppState* state);
-// `person fit` under a `person` subcommand.
-void RegisterPerson(CLI::App* app, AppState* state);
-void RegisterAppearance(CLI::App* app, AppState* state);
-// `eval track` (and other metrics) under an `eval` subcommand, made when absent.
-void RegisterEval(CLI::App* app, AppState* state);
-void RegisterTextures(CLI::App* app, AppState* state);
-// `textures train` and `textures infer`, under the `textures` subcommand.
-void RegisterTexturesNetworks(CLI::App* app, AppState* state);
-// `lipsync blend` and `eval lipsync` (`lipsync track` is registered with track).
-void RegisterLipsync(CLI::App* app, AppState* state);
-// `regress train` and `regress infer`.
-void RegisterRegress(CLI::App* app, AppState* state);
-// Subcommand `name` (eval, export) of `app`, added with `description` on first use: several
-// files register subcommands under it.
-CLI::App* GroupSubcommand(CLI::App* app, const std::string& name, const std::string& description);
-// GroupSubcommand(app, "eval", ...).
-CLI::App* EvalSubcommand(CLI::App* app);
-// GroupSubcommand(app, "lipsync", ...).
-CLI::App* LipsyncSubcommand(CLI::App* app);
-void RegisterRun(CLI::App* app, AppState* state);
+}  // namespace facecap::app
 
-std::string VersionReport(const dist::Comm& comm);
-
-}  // namespace facecap::stages
-
-#endif  // FACECAP_STAGES_REGISTRY_H_
+#endif  // FACECAP_APP_REGISTRY_H_

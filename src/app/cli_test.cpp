@@ -4,11 +4,11 @@
 
 #include <gtest/gtest.h>
 
-#include "stages/cli.h"
+#include "app/cli.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
-namespace facecap::stages {
+namespace facecap::app {
 namespace {
 
 using testing::RunFacecap;
@@ -267,4 +267,4 @@ TEST(Cli, NumericFlagThatIsNotOneNumberExitsWithUsageCode) {
 }
 
 }  // namespace
-}  // namespace facecap::stages
+}  // namespace facecap::app

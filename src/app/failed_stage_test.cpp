@@ -12,7 +12,7 @@
 #include "util/errors.h"
 #include "util/image.h"
 
-namespace facecap::stages {
+namespace facecap::app {
 namespace {
 
 TEST(FailedStage, JobRerunAfterAFailedIngestFailsAgainInsteadOfSkippingIt) {
@@ -37,4 +37,4 @@ TEST(FailedStage, JobRerunAfterAFailedIngestFailsAgainInsteadOfSkippingIt) {
 }
 
 }  // namespace
-}  // namespace facecap::stages
+}  // namespace facecap::app

@@ -10,7 +10,7 @@
 #include "testing/testing.h"
 #include "util/errors.h"
 
-namespace facecap::stages {
+namespace facecap::app {
 namespace {
 
 using testing::RunCommand;
@@ -57,4 +57,4 @@ TEST(JobPlan, EveryShippedJobFileIsValid) {
 }
 
 }  // namespace
-}  // namespace facecap::stages
+}  // namespace facecap::app

@@ -19,15 +19,17 @@
 
 #include "io/hdf5.h"
 #include "io/rig_io.h"
-#include "stages/app.h"
-#include "stages/cli.h"
-#include "stages/registry.h"
+#include "app/app.h"
+#include "app/cli.h"
+#include "app/registry.h"
 #include "testing/testing.h"
 
-namespace facecap::stages {
+namespace facecap::app {
 namespace {
 
 namespace fs = std::filesystem;
+using stages::OutputKey;
+using stages::OutputKind;
 
 const char* const kDlibModel = "/usr/share/dlib/shape_predictor_68_face_landmarks.dat";
 const char* const kPocketsphinxModel = "/usr/share/pocketsphinx/model/en-us";
@@ -475,4 +477,4 @@ TEST_F(BadInputSweep, InputsOfTheWrongKindAreClearErrors) {
 }
 
 }  // namespace
-}  // namespace facecap::stages
+}  // namespace facecap::app

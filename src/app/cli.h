@@ -5,8 +5,8 @@
 // Precedence: struct defaults < job file (--job) < --set table.key=value < the flags.
 // A job file holds every stage's table, so a stage accepts the other stages' tables; a table
 // that no stage reads ([rig.demoo], --set rigdemo.identity_seed=3) is an error.
-#ifndef FACECAP_STAGES_CLI_H_
-#define FACECAP_STAGES_CLI_H_
+#ifndef FACECAP_APP_CLI_H_
+#define FACECAP_APP_CLI_H_
 
 #include <map>
 #include <sstream>
@@ -20,7 +20,7 @@
 #include "stages/stage.h"
 #include "util/errors.h"
 
-namespace facecap::stages {
+namespace facecap::app {
 
 // Flags common to all stages plus the per-option overrides collected from the command line.
 struct StageFlags {
@@ -173,7 +173,7 @@ io::Config BuildConfig(const StageFlags& flags);
 // Resolves Options for the stage: defaults, job file, --set, flags; then Check().
 // `resolved` receives the options as stored in the output's provenance.
 template <typename Options>
-Options ResolveStageOptions(const StageFlags& flags, StageContext* ctx, io::Config* resolved) {
+Options ResolveStageOptions(const StageFlags& flags, stages::StageContext* ctx, io::Config* resolved) {
   ctx->config = BuildConfig(flags);
   Options options = io::ResolveOptions<Options>(ctx->config, flags.table);
   io::StoreOptions(options, flags.table, resolved);
@@ -183,6 +183,6 @@ Options ResolveStageOptions(const StageFlags& flags, StageContext* ctx, io::Conf
 // Quotes argv into one command line (for provenance).
 std::string JoinCommandLine(int argc, char** argv);
 
-}  // namespace facecap::stages
+}  // namespace facecap::app
 
-#endif  // FACECAP_STAGES_CLI_H_
+#endif  // FACECAP_APP_CLI_H_

@@ -1,9 +1,9 @@
-#ifndef FACECAP_STAGES_APP_H_
-#define FACECAP_STAGES_APP_H_
+#ifndef FACECAP_APP_APP_H_
+#define FACECAP_APP_APP_H_
 
 namespace CLI { class App; }
 
-namespace facecap::stages {
+namespace facecap::app {
 
 struct AppState;
 
@@ -15,6 +15,6 @@ void RegisterAll(CLI::App* app, AppState* state);
 // (README.md, "Exit codes").
 int RunApp(int argc, char** argv);
 
-}  // namespace facecap::stages
+}  // namespace facecap::app
 
-#endif  // FACECAP_STAGES_APP_H_
+#endif  // FACECAP_APP_APP_H_

@@ -1,14 +1,15 @@
-#include "stages/app.h"
+#include "app/app.h"
 
 #include <iostream>
 
-#include "stages/cli.h"
-#include "stages/registry.h"
+#include "app/cli.h"
+#include "app/commands.h"
+#include "app/registry.h"
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/signals.h"
 
-namespace facecap::stages {
+namespace facecap::app {
 
 void RegisterAll(CLI::App* app, AppState* state) {
   RegisterVersion(app, state);
@@ -21,14 +22,18 @@ void RegisterAll(CLI::App* app, AppState* state) {
   RegisterExport(app, state);
   RegisterScans(app, state);
   RegisterBlendshapes(app, state);
+  RegisterEvalBlendshapes(app, state);
   RegisterTrack(app, state);
   RegisterPerson(app, state);
   RegisterAppearance(app, state);
   RegisterEval(app, state);
   RegisterTextures(app, state);
+  RegisterEvalTextures(app, state);
   RegisterTexturesNetworks(app, state);
   RegisterAssemble(app, state);
+  RegisterEvalAssembly(app, state);
   RegisterLipsync(app, state);
+  RegisterEvalLipsync(app, state);
   RegisterRegress(app, state);
   RegisterRun(app, state);
 }
@@ -79,4 +84,4 @@ int RunApp(int argc, char** argv) {
   return code;
 }
 
-}  // namespace facecap::stages
+}  // namespace facecap::app

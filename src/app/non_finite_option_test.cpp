@@ -9,7 +9,7 @@
 #include "testing/testing.h"
 #include "util/errors.h"
 
-namespace facecap::stages {
+namespace facecap::app {
 namespace {
 
 using testing::RunFacecap;
@@ -31,4 +31,4 @@ TEST(NonFiniteOptions, RenderRefusesNanYawFromEverySource) {
 }
 
 }  // namespace
-}  // namespace facecap::stages
+}  // namespace facecap::app

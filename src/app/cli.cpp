@@ -1,4 +1,4 @@
-#include "stages/cli.h"
+#include "app/cli.h"
 
 #include <algorithm>
 #include <charconv>
@@ -7,7 +7,7 @@
 
 #include "util/errors.h"
 
-namespace facecap::stages {
+namespace facecap::app {
 
 std::string NumberFlagToToml(const std::string& text, bool integral) {
   // The decimal grammar only: from_chars alone would also take "inf", "nan" and hex digits
@@ -109,4 +109,4 @@ std::string JoinCommandLine(int argc, char** argv) {
   return line;
 }
 
-}  // namespace facecap::stages
+}  // namespace facecap::app
