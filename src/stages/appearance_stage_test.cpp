@@ -14,6 +14,8 @@
 #include "io/image_io.h"
 #include "io/rig_io.h"
 #include "io/texture_file.h"
+#include "stages/rig_stage.h"
+#include "stages/synth_clip_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -26,11 +28,16 @@ class Appearance : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    auto rig = RunFacecap("rig demo --out " + dir_->File("rig.h5"));
-    ASSERT_EQ(rig.code, 0) << rig.output;
-    auto clip = RunFacecap("synth clip --rig " + dir_->File("rig.h5") + " --frames 2 --size 64 --out " +
-                           Clip() + " --identity-seed 21");
-    ASSERT_EQ(clip.code, 0) << clip.output;
+    RigDemoOptions demo_rig;
+    demo_rig.out = dir_->File("rig.h5");
+    RunInProcess(RunRigDemo, demo_rig, "rig.demo");
+    SynthClipOptions clip;
+    clip.rig = dir_->File("rig.h5");
+    clip.clip.frames = 2;
+    clip.clip.size = 64;
+    clip.clip.identity_seed = 21;
+    clip.out = Clip();
+    RunInProcess(RunSynthClip, clip, "synth.clip");
   }
   static void TearDownTestSuite() { delete dir_; }
   static std::string Clip() { return dir_->File("clip.h5"); }

@@ -10,6 +10,7 @@
 
 #include "io/hdf5.h"
 #include "io/rig_io.h"
+#include "stages/rig_stage.h"
 #include "testing/testing.h"
 
 namespace facecap::stages {
@@ -23,9 +24,12 @@ double Nested(const std::string& json, const std::string& object, const std::str
 
 TEST(AssembleStage, TheDemoHeadGetsItsPartsAndExportsThemAsMeshes) {
   testing::TempDir tmp;
-  auto r = RunFacecap("rig demo --num-identity-modes 0 --out " + tmp.File("head.h5"));
-  ASSERT_EQ(r.code, 0) << r.output;
-  r = RunFacecap("assemble --head-resolution 100 --rig " + tmp.File("head.h5") + " --out " + tmp.File("assembled.h5"));
+  RigDemoOptions demo_rig;
+  demo_rig.num_identity_modes = 0;
+  demo_rig.out = tmp.File("head.h5");
+  RunInProcess(RunRigDemo, demo_rig, "rig.demo");
+  auto r = RunFacecap("assemble --head-resolution 100 --rig " + tmp.File("head.h5") + " --out " +
+                      tmp.File("assembled.h5"));
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("assemble: "), std::string::npos) << r.output;
   const io::H5File f = io::H5File::OpenRead(tmp.File("assembled.h5"));

@@ -13,6 +13,7 @@
 #include "render/camera.h"
 #include "render/framing.h"
 #include "rig/demo_head.h"
+#include "stages/rig_stage.h"
 #include "testing/testing.h"
 
 namespace facecap::stages {
@@ -92,10 +93,11 @@ class Curate : public ::testing::Test {
   // A wild clip of one person with its mp4, ingested, and its curation tree.
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    auto r = RunFacecap("rig demo --out " + File("rig.h5"));
-    ASSERT_EQ(r.code, 0) << r.output;
-    r = RunFacecap("synth clip --rig " + File("rig.h5") + " --frames 60 --size 160 --video --out " +
-                   File("clip.h5"));
+    RigDemoOptions demo_rig;
+    demo_rig.out = File("rig.h5");
+    RunInProcess(RunRigDemo, demo_rig, "rig.demo");
+    auto r = RunFacecap("synth clip --rig " + File("rig.h5") +
+                        " --frames 60 --size 160 --video --out " + File("clip.h5"));
     ASSERT_EQ(r.code, 0) << r.output;
     r = RunFacecap("ingest --video " + File("clip.mp4") + " --out " + File("frames.h5") + " --crop-size 96");
     ASSERT_EQ(r.code, 0) << r.output;

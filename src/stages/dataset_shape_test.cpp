@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include "io/hdf5.h"
+#include "stages/rig_stage.h"
+#include "stages/synth_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -21,9 +23,15 @@ class DatasetShapes : public ::testing::Test {
     rig_ = dir_.File("rig.h5");
     truth_ = dir_.File("samples.h5");
     track_ = dir_.File("track.h5");
-    ASSERT_EQ(RunFacecap("rig demo --out " + rig_).code, 0);
-    ASSERT_EQ(RunFacecap("synth samples --rig " + rig_ + " --out " + truth_ +
-                         " --count 3 --size 48").code, 0);
+    RigDemoOptions demo_rig;
+    demo_rig.out = rig_;
+    RunInProcess(RunRigDemo, demo_rig, "rig.demo");
+    SynthSamplesOptions samples;
+    samples.rig = rig_;
+    samples.out = truth_;
+    samples.sample.count = 3;
+    samples.sample.size = 48;
+    RunInProcess(RunSynthSamples, samples, "synth.samples");
     const auto r = RunFacecap("track --rig " + rig_ + " --targets " + truth_ +
                               " --targets-dataset /samples/segmentation --out " + track_);
     ASSERT_EQ(r.code, 0) << r.output;

@@ -11,6 +11,8 @@
 #include "io/hdf5.h"
 #include "nn/deepfake.h"
 #include "nn/deepfake_io.h"
+#include "stages/rig_stage.h"
+#include "stages/synth_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -26,12 +28,17 @@ class DeepfakeStage : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    auto r = RunFacecap("rig demo --out " + File("rig.h5"));
-    ASSERT_EQ(r.code, 0) << r.output;
-    for (const char* seed : {"1", "2"}) {
-      r = RunFacecap("synth samples --rig " + File("rig.h5") + " --count 24 --size 32 --seed " +
-                     seed + " --out " + File(std::string("samples") + seed + ".h5"));
-      ASSERT_EQ(r.code, 0) << r.output;
+    RigDemoOptions demo_rig;
+    demo_rig.out = File("rig.h5");
+    RunInProcess(RunRigDemo, demo_rig, "rig.demo");
+    for (int seed : {1, 2}) {
+      SynthSamplesOptions samples;
+      samples.rig = File("rig.h5");
+      samples.sample.count = 24;
+      samples.sample.size = 32;
+      samples.sample.seed = seed;
+      samples.out = File("samples" + std::to_string(seed) + ".h5");
+      RunInProcess(RunSynthSamples, samples, "synth.samples");
     }
     // Domain B: other samples through a colour transform (a stand-in for a wild clip), with
     // the true segmentation beside them.

@@ -11,6 +11,8 @@
 #include "io/mesh_io.h"
 #include "io/texture_file.h"
 #include "rig/arkit.h"
+#include "stages/rig_stage.h"
+#include "stages/synth_clip_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -89,7 +91,9 @@ TEST(ExportLiveLink, MissingTrackIsAnInputError) {
 TEST(ExportGltf, AnimationReimportsWithTheRigsMorphTargets) {
   testing::TempDir dir;
   const std::string track = WriteTrack(dir), rig = dir.File("rig.h5"), glb = dir.File("take.glb");
-  ASSERT_EQ(RunFacecap("rig demo --out " + rig).code, 0);
+  RigDemoOptions demo_rig;
+  demo_rig.out = rig;
+  RunInProcess(RunRigDemo, demo_rig, "rig.demo");
   auto r = RunFacecap("export gltf --track " + track + " --rig " + rig + " --out " + glb);
   ASSERT_EQ(r.code, 0) << r.output;
   const rig::Rig back = io::ImportRigFromGltf(glb);
@@ -102,9 +106,15 @@ TEST(ExportGltf, AnimationReimportsWithTheRigsMorphTargets) {
 TEST(ExportOverlay, DrawsTheTrackedRigWhereTheFaceIs) {
   testing::TempDir dir;
   const std::string rig = dir.File("rig.h5"), clip = dir.File("clip.h5");
-  ASSERT_EQ(RunFacecap("rig demo --out " + rig).code, 0);
-  auto r = RunFacecap("synth clip --rig " + rig + " --frames 6 --size 64 --out " + clip);
-  ASSERT_EQ(r.code, 0) << r.output;
+  RigDemoOptions demo_rig;
+  demo_rig.out = rig;
+  RunInProcess(RunRigDemo, demo_rig, "rig.demo");
+  SynthClipOptions synth_clip;
+  synth_clip.rig = rig;
+  synth_clip.clip.frames = 6;
+  synth_clip.clip.size = 64;
+  synth_clip.out = clip;
+  RunInProcess(RunSynthClip, synth_clip, "synth.clip");
   io::H5File c = io::H5File::OpenRead(clip);
   const int F = 6, S = 52;
   const std::string track = dir.File("track.h5");
@@ -120,8 +130,8 @@ TEST(ExportOverlay, DrawsTheTrackedRigWhereTheFaceIs) {
     t.Commit();
   }
   const std::string mp4 = dir.File("overlay.mp4");
-  r = RunFacecap("export overlay --track " + track + " --rig " + clip + " --frames " + clip +
-                 " --opacity 1 --scale 1 --out " + mp4);
+  auto r = RunFacecap("export overlay --track " + track + " --rig " + clip + " --frames " + clip +
+                      " --opacity 1 --scale 1 --out " + mp4);
   ASSERT_EQ(r.code, 0) << r.output;
   const std::string raw = dir.File("overlay.rgb");
   ASSERT_EQ(std::system(("ffmpeg -loglevel error -y -i " + mp4 +
@@ -145,7 +155,8 @@ TEST(ExportOverlay, DrawsTheTrackedRigWhereTheFaceIs) {
   // --texture shades the rig with the rig file's texture: a green one shows green where the
   // face is; the clip (its albedo is truth, not a rig texture) has none to draw with.
   const std::string textured = dir.File("textured.h5");
-  ASSERT_EQ(RunFacecap("rig demo --out " + textured).code, 0);
+  demo_rig.out = textured;
+  RunInProcess(RunRigDemo, demo_rig, "rig.demo");
   {
     io::H5File t = io::H5File::OpenReadWrite(textured);
     ImageF green(16, 16, 3);

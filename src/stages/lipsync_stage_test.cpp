@@ -15,6 +15,7 @@
 #include "io/audio.h"
 #include "io/hdf5.h"
 #include "lipsync/visemes.h"
+#include "stages/rig_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -31,8 +32,11 @@ class Lipsync : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    auto r = RunFacecap("rig demo --num-identity-modes 8 --out " + File("rig.h5"));
-    ASSERT_EQ(r.code, 0) << r.output;
+    RigDemoOptions demo_rig;
+    demo_rig.num_identity_modes = 8;
+    demo_rig.out = File("rig.h5");
+    RunInProcess(RunRigDemo, demo_rig, "rig.demo");
+    testing::CommandResult r;
     const std::string common = "synth clip --rig " + File("rig.h5") + " --frames " +
                                std::to_string(kFrames) + " --size 64 --texture-size 128 "
                                "--identity-seed 3 --video --speech 'Bob made a map of Paris.' ";

@@ -15,6 +15,7 @@
 #include "io/hdf5.h"
 #include "rig/pose.h"
 #include "stages/ingested_frames.h"
+#include "stages/rig_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 #include "util/random.h"
@@ -30,7 +31,9 @@ class Regress : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    ASSERT_EQ(RunFacecap("rig demo --out " + File("rig.h5")).code, 0);
+    RigDemoOptions demo_rig;
+    demo_rig.out = File("rig.h5");
+    RunInProcess(RunRigDemo, demo_rig, "rig.demo");
     auto r = RunFacecap("synth samples --rig " + File("rig.h5") + " --count " + std::to_string(kSamples) +
                         " --size 32 --framing crop --fov-deg 40 --fill 0.5 --out " + File("samples.h5"));
     ASSERT_EQ(r.code, 0) << r.output;

@@ -9,6 +9,7 @@
 #include "io/rig_io.h"
 #include "rig/evaluate.h"
 #include "rig/pose.h"
+#include "stages/rig_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -41,8 +42,9 @@ class RenderMeshOut : public ::testing::Test {
  protected:
   void SetUp() override {
     rig_path_ = dir_.File("rig.h5");
-    const auto r = RunFacecap("rig demo --out " + rig_path_);
-    ASSERT_EQ(r.code, 0) << r.output;
+    RigDemoOptions demo_rig;
+    demo_rig.out = rig_path_;
+    RunInProcess(RunRigDemo, demo_rig, "rig.demo");
     rig_ = io::ReadRigFile(rig_path_);
   }
   std::string Render(const std::string& args) {

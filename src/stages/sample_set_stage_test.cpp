@@ -9,6 +9,8 @@
 
 #include "io/hdf5.h"
 #include "io/rig_io.h"
+#include "stages/rig_stage.h"
+#include "stages/synth_stage.h"
 #include "testing/testing.h"
 #include "util/random.h"
 
@@ -28,10 +30,15 @@ class SampleSet : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    ASSERT_EQ(RunFacecap("rig demo --out " + File("rig.h5")).code, 0);
-    auto r = RunFacecap("synth samples --rig " + File("rig.h5") + " --count " +
-                        std::to_string(kSamples) + " --size 32 --out " + File("samples.h5"));
-    ASSERT_EQ(r.code, 0) << r.output;
+    RigDemoOptions demo_rig;
+    demo_rig.out = File("rig.h5");
+    RunInProcess(RunRigDemo, demo_rig, "rig.demo");
+    SynthSamplesOptions synth;
+    synth.rig = File("rig.h5");
+    synth.sample.count = kSamples;
+    synth.sample.size = 32;
+    synth.out = File("samples.h5");
+    RunInProcess(RunSynthSamples, synth, "synth.samples");
     Rng rng(9, 0);
     // Samples: every fifth far from the real frames (the planted outliers).
     std::vector<float> sample_codes;

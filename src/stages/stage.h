@@ -10,6 +10,7 @@
 #include "io/config.h"
 #include "io/hdf5.h"
 #include "train/controller.h"
+#include "util/errors.h"
 
 namespace facecap::stages {
 
@@ -41,10 +42,13 @@ io::Config StoredOptions(const Options& options, const std::string& table) {
 }
 
 // Runs a stage in this process on one rank without MPI (tests, tools): `run` is the stage's
-// Run, its options stored in the output under `table` as the command line would store them.
+// Run, its options checked as the command line checks them (InvalidInputError naming the
+// table) and stored in the output under `table` as the command line would store them.
 template <class Options, class Summary>
 Summary RunInProcess(Summary (*run)(const Options&, const StageContext&, const io::Config&),
                      const Options& options, const std::string& table) {
+  std::string why;
+  if (!options.Check(&why)) throw InvalidInputError("[" + table + "] " + why);
   StageContext ctx;
   ctx.command_line = "facecap " + table + " (in-process)";
   return run(options, ctx, StoredOptions(options, table));

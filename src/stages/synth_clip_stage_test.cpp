@@ -9,6 +9,7 @@
 
 #include "io/hdf5.h"
 #include "io/image_io.h"
+#include "stages/rig_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -26,8 +27,10 @@ class SynthClip : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    auto r = RunFacecap("rig demo --num-identity-modes 8 --out " + Rig());
-    ASSERT_EQ(r.code, 0) << r.output;
+    RigDemoOptions demo_rig;
+    demo_rig.num_identity_modes = 8;
+    demo_rig.out = Rig();
+    RunInProcess(RunRigDemo, demo_rig, "rig.demo");
   }
   static void TearDownTestSuite() { delete dir_; }
   static std::string Rig() { return dir_->File("rig.h5"); }

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "io/hdf5.h"
+#include "stages/rig_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -22,8 +23,9 @@ class SynthSamples : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    auto r = RunFacecap("rig demo --out " + Rig());
-    ASSERT_EQ(r.code, 0) << r.output;
+    RigDemoOptions demo_rig;
+    demo_rig.out = Rig();
+    RunInProcess(RunRigDemo, demo_rig, "rig.demo");
   }
   static void TearDownTestSuite() { delete dir_; }
   static std::string Rig() { return dir_->File("rig.h5"); }

@@ -12,6 +12,9 @@
 #include <gtest/gtest.h>
 
 #include "io/hdf5.h"
+#include "stages/rig_stage.h"
+#include "stages/synth_stage.h"
+#include "stages/track_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -27,11 +30,18 @@ class TrackStage : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    auto r = RunFacecap("rig demo --num-identity-modes 20 --out " + File("rig.h5"));
-    ASSERT_EQ(r.code, 0) << r.output;
-    r = RunFacecap("synth samples --rig " + File("rig.h5") + " --count 5 --size 64 --batch 2"
-                   " --yaw-limit-deg 30 --out " + File("samples.h5"));
-    ASSERT_EQ(r.code, 0) << r.output;
+    RigDemoOptions demo_rig;
+    demo_rig.num_identity_modes = 20;
+    demo_rig.out = File("rig.h5");
+    RunInProcess(RunRigDemo, demo_rig, "rig.demo");
+    SynthSamplesOptions samples;
+    samples.rig = demo_rig.out;
+    samples.sample.count = 5;
+    samples.sample.size = 64;
+    samples.sample.yaw_limit_deg = 30.f;
+    samples.batch = 2;
+    samples.out = File("samples.h5");
+    RunInProcess(RunSynthSamples, samples, "synth.samples");
   }
   static void TearDownTestSuite() { delete dir_; }
   static std::string File(const std::string& name) { return dir_->File(name); }
@@ -123,6 +133,30 @@ TEST_F(TrackStage, OneAndThreeRanksWriteIdenticalTracksAndEvalReportsMetrics) {
     const double m = std::accumulate(values.begin(), values.end(), 0.0) / 5;
     EXPECT_NEAR(m, number(mean), 1e-5 * (1 + std::abs(m))) << name;
   }
+}
+
+// The stage called in-process (its header's Run) writes what the command writes, and says
+// what it did: five frames solved, then none on a rerun of the complete output.
+TEST_F(TrackStage, InProcessRunWritesWhatTheCommandWrites) {
+  const std::string command = File("command.h5"), in_process = File("in_process.h5");
+  auto r = RunFacecap(Args(command));
+  ASSERT_EQ(r.code, 0) << r.output;
+  TrackOptions o;
+  o.rig = File("rig.h5");
+  o.targets = File("samples.h5");
+  o.out = in_process;
+  o.batch = 1;
+  o.tracker.levels = 1;
+  o.tracker.epochs = 2;
+  const StageSummary first = RunInProcess(RunTrack, o, "track");
+  EXPECT_EQ(first.out, in_process);
+  EXPECT_EQ(first.unit, "frames");
+  EXPECT_EQ(first.items, 5);
+  EXPECT_EQ(first.computed, 5);
+  ExpectSameDatasets(command, in_process);
+  EXPECT_EQ(RunInProcess(RunTrack, o, "track").computed, 0);
+  o.tracker.levels = 0;
+  EXPECT_THROW(RunInProcess(RunTrack, o, "track"), InvalidInputError);
 }
 
 TEST_F(TrackStage, KilledRunContinuesToTheUninterruptedResult) {
