@@ -675,6 +675,91 @@ PartSet MakeGenericParts(const rig::Rig& head, const LinearShapes& shapes) {
   return out;
 }
 
+namespace {
+
+// Eyeballs behind the lids: for each lid vertex, the pose of at most `clearance_shapes`
+// shapes at weights in [0, 1] that brings it closest to the eyeball's centre,
+// min |a + sum_i w_i b_i| (a: the vertex from the centre, b_i: its delta less the centre's;
+// ClosestSparsePose), then the setback that keeps every such pose outside the eyeball.
+void SetEyeballsBehindLids(const LinearShapes& person, int clearance_shapes, PartSet* parts,
+                           AssemblyReport* report) {
+  PartSet& out = *parts;
+  const int S = person.NumShapes();
+  for (size_t gi = 0; gi < out.groups.size(); ++gi) {
+    const PartGroup& group = out.groups[gi];
+    int ball = -1;
+    for (size_t pi = 0; pi < out.parts.size(); ++pi) {
+      if (out.parts[pi].group == static_cast<int>(gi) && out.parts[pi].material == "eye") ball = static_cast<int>(pi);
+    }
+    if (group.clear.empty() || ball < 0) continue;
+    const SecondaryPart& eye = out.parts[ball];
+    std::vector<Vec3> points(eye.NumVertices());
+    for (int k = 0; k < eye.NumVertices(); ++k) points[k] = Row(eye.neutral, k);
+    Vec3 centre;
+    float radius;
+    FitSphere(points, &centre, &radius);
+    std::vector<Vec3> centre_motion(S);
+    for (int i = 0; i < S; ++i) {
+      const rig::Vertices posed = eye.Evaluate(Eigen::VectorXf::Unit(S, i));
+      for (int k = 0; k < eye.NumVertices(); ++k) points[k] = Row(posed, k);
+      Vec3 c;
+      float r;
+      FitSphere(points, &c, &r);
+      centre_motion[i] = c - centre;
+    }
+    // The closest pose of every lid vertex (it does not depend on a setback along `back`
+    // much; it is found once at the eyeball's placed centre).
+    struct Closest {
+      int vertex;
+      Eigen::VectorXf weights;  // S
+    };
+    std::vector<Closest> closest;
+    for (int v : group.clear) {
+      std::vector<int> moving;
+      for (int i = 0; i < S; ++i) {
+        if ((DeltaOf(person.deltas, v, i) - centre_motion[i]).squaredNorm() > 1e-10f) moving.push_back(i);
+      }
+      const Vec3 a = Row(person.neutral, v) - centre;
+      Eigen::MatrixXf b(3, moving.size());
+      for (size_t k = 0; k < moving.size(); ++k) b.col(k) = DeltaOf(person.deltas, v, moving[k]) - centre_motion[moving[k]];
+      const Eigen::VectorXf x = ClosestSparsePose(a, b, clearance_shapes);
+      Eigen::VectorXf w = Eigen::VectorXf::Zero(S);
+      for (size_t k = 0; k < moving.size(); ++k) w[moving[k]] = x[k];
+      closest.push_back({v, w});
+    }
+    Vec3 lid_mean = Vec3::Zero();
+    for (int v : group.clear) lid_mean += Row(person.neutral, v) / group.clear.size();
+    const Vec3 back = (centre - lid_mean).normalized();
+    float setback = 0.f;
+    for (int iteration = 0; iteration < 20; ++iteration) {
+      const Vec3 c = centre + setback * back;
+      float worst = -1e9f;
+      for (const Closest& k : closest) {
+        Vec3 p = Row(person.neutral, k.vertex) - c;
+        for (int i = 0; i < S; ++i) {
+          if (k.weights[i] != 0.f) p += k.weights[i] * (DeltaOf(person.deltas, k.vertex, i) - centre_motion[i]);
+        }
+        worst = std::max(worst, radius - p.norm());
+      }
+      if (worst <= 0.f) break;
+      setback += worst + 1e-4f;
+    }
+    if (setback > 0.f) {
+      const std::string side = group.name.substr(0, group.name.find('_') + 1);  // "left_"
+      for (SecondaryPart& p : out.parts) {
+        const bool lacrimal = p.name == side + "lacrimal";
+        if (p.group != static_cast<int>(gi) && !lacrimal) continue;
+        for (int k = 0; k < p.NumVertices(); ++k) {
+          if (p.follow[k] < 0) p.neutral.row(k) += setback * back.transpose();
+        }
+      }
+    }
+    if (report) report->eyeball_setback_cm[group.name == "right_eyeball" ? 1 : 0] = setback;
+  }
+}
+
+}  // namespace
+
 PartSet AssembleParts(const PartSet& generic, const LinearShapes& generic_shapes,
                       const LinearShapes& person, const AssemblyOptions& options,
                       AssemblyReport* report) {
@@ -803,82 +888,9 @@ PartSet AssembleParts(const PartSet& generic, const LinearShapes& generic_shapes
       }
     }
   }
-  // 4. Eyeballs behind the lids: for each lid vertex, the pose of at most `clearance_shapes`
-  // shapes at weights in [0, 1] that brings it closest to the eyeball's centre,
-  // min |a + sum_i w_i b_i| (a: the vertex from the centre, b_i: its delta less the centre's;
-  // ClosestSparsePose), then the setback that keeps every such pose outside the eyeball.
+  // 4. Eyeballs behind the lids.
   if (options.clearance_shapes > 0) {
-    for (size_t gi = 0; gi < out.groups.size(); ++gi) {
-      const PartGroup& group = out.groups[gi];
-      int ball = -1;
-      for (size_t pi = 0; pi < out.parts.size(); ++pi) {
-        if (out.parts[pi].group == static_cast<int>(gi) && out.parts[pi].material == "eye") ball = static_cast<int>(pi);
-      }
-      if (group.clear.empty() || ball < 0) continue;
-      const SecondaryPart& eye = out.parts[ball];
-      std::vector<Vec3> points(eye.NumVertices());
-      for (int k = 0; k < eye.NumVertices(); ++k) points[k] = Row(eye.neutral, k);
-      Vec3 centre;
-      float radius;
-      FitSphere(points, &centre, &radius);
-      std::vector<Vec3> centre_motion(S);
-      for (int i = 0; i < S; ++i) {
-        const rig::Vertices posed = eye.Evaluate(Eigen::VectorXf::Unit(S, i));
-        for (int k = 0; k < eye.NumVertices(); ++k) points[k] = Row(posed, k);
-        Vec3 c;
-        float r;
-        FitSphere(points, &c, &r);
-        centre_motion[i] = c - centre;
-      }
-      // The closest pose of every lid vertex (it does not depend on a setback along `back`
-      // much; it is found once at the eyeball's placed centre).
-      struct Closest {
-        int vertex;
-        Eigen::VectorXf weights;  // S
-      };
-      std::vector<Closest> closest;
-      for (int v : group.clear) {
-        std::vector<int> moving;
-        for (int i = 0; i < S; ++i) {
-          if ((DeltaOf(person.deltas, v, i) - centre_motion[i]).squaredNorm() > 1e-10f) moving.push_back(i);
-        }
-        const Vec3 a = Row(person.neutral, v) - centre;
-        Eigen::MatrixXf b(3, moving.size());
-        for (size_t k = 0; k < moving.size(); ++k) b.col(k) = DeltaOf(person.deltas, v, moving[k]) - centre_motion[moving[k]];
-        const Eigen::VectorXf x = ClosestSparsePose(a, b, options.clearance_shapes);
-        Eigen::VectorXf w = Eigen::VectorXf::Zero(S);
-        for (size_t k = 0; k < moving.size(); ++k) w[moving[k]] = x[k];
-        closest.push_back({v, w});
-      }
-      Vec3 lid_mean = Vec3::Zero();
-      for (int v : group.clear) lid_mean += Row(person.neutral, v) / group.clear.size();
-      const Vec3 back = (centre - lid_mean).normalized();
-      float setback = 0.f;
-      for (int iteration = 0; iteration < 20; ++iteration) {
-        const Vec3 c = centre + setback * back;
-        float worst = -1e9f;
-        for (const Closest& k : closest) {
-          Vec3 p = Row(person.neutral, k.vertex) - c;
-          for (int i = 0; i < S; ++i) {
-            if (k.weights[i] != 0.f) p += k.weights[i] * (DeltaOf(person.deltas, k.vertex, i) - centre_motion[i]);
-          }
-          worst = std::max(worst, radius - p.norm());
-        }
-        if (worst <= 0.f) break;
-        setback += worst + 1e-4f;
-      }
-      if (setback > 0.f) {
-        const std::string side = group.name.substr(0, group.name.find('_') + 1);  // "left_"
-        for (SecondaryPart& p : out.parts) {
-          const bool lacrimal = p.name == side + "lacrimal";
-          if (p.group != static_cast<int>(gi) && !lacrimal) continue;
-          for (int k = 0; k < p.NumVertices(); ++k) {
-            if (p.follow[k] < 0) p.neutral.row(k) += setback * back.transpose();
-          }
-        }
-      }
-      if (report) report->eyeball_setback_cm[group.name == "right_eyeball" ? 1 : 0] = setback;
-    }
+    SetEyeballsBehindLids(person, options.clearance_shapes, &out, report);
   }
   if (report) {
     report->placement_rms_cm = placement_n ? static_cast<float>(std::sqrt(placement_sq / placement_n)) : 0.f;

@@ -787,8 +787,7 @@ StageSummary RunEvalBlendshapes(const EvalBlendshapesOptions& o, const StageCont
       FC_INFO("eval blendshapes: shapes and per-scan errors -> {}", o.shapes);
     }
     if (o.json) std::cout << json << std::endl;
-    summary.items = 1;
-    summary.computed = 1;
+    summary.items = summary.computed = 1;
   });
   return summary;
 }
