@@ -11,6 +11,7 @@
 
 #include "curate/cluster_tree.h"
 #include "curate/features.h"
+#include "curate/frame_query.h"
 #include "face/align.h"
 #include "face/face_analyzer.h"
 #include "face/frame_source.h"
@@ -53,17 +54,8 @@ int CropSize(const io::H5File& f) {
   return static_cast<int>(s[1]);
 }
 
-std::vector<Eigen::VectorXf> QueryFeatures(const curate::FeatureTable& t, int row,
-                                           const std::vector<FeatureKind>& kinds) {
-  std::vector<Eigen::VectorXf> q;
-  for (FeatureKind k : kinds) q.push_back(t.Of(k).row(row).transpose());
-  return q;
-}
-
-struct Curation {
-  std::vector<FeatureKind> kinds;
-  std::vector<int64_t> frame_of_item;  // row of /frames per tree item
-  curate::ClusterTree tree;
+// A curation file: its tree over the frames, and the ingest output they are rows of.
+struct Curation : curate::FrameTree {
   std::string frames_file;
 };
 
@@ -166,59 +158,33 @@ std::vector<QueryItem> QueriesOfImages(const CurateQueryOptions& o, const face::
   return queries;
 }
 
-// The picks of all queries, as rows of the ingest output's /frames.
-struct QueryPicks {
-  curate::FeatureTable features;            // of the queries
-  std::vector<int32_t> picks_per_level;     // q_1 ... q_n used
-  std::vector<std::vector<int64_t>> per_query;
-  std::vector<int64_t> unique;              // unique, in query order
-  std::vector<int64_t> offsets{0}, all;     // query i picked all[offsets[i] : offsets[i+1]]
-  double query_s = 0.;                      // time in the tree
-};
-
-// The queries' features, then the tree.
-QueryPicks PickFrames(const Curation& c, const std::vector<QueryItem>& queries, const CurateQueryOptions& o) {
-  QueryPicks p;
-  std::vector<const Image8*> crop_ptrs;
+// The queries' picks, as rows of the ingest output's /frames (curate::PickFrames), and what
+// the widening to unique_frames did.
+curate::FramePicks PickFrames(const Curation& c, const std::vector<QueryItem>& queries,
+                              const CurateQueryOptions& o) {
+  std::vector<const Image8*> crops;
   std::vector<face::Landmarks> landmarks;
   for (const QueryItem& q : queries) {
-    crop_ptrs.push_back(&q.crop);
+    crops.push_back(&q.crop);
     landmarks.push_back(q.landmarks);
   }
-  p.features = curate::ComputeFeatures(crop_ptrs, landmarks, 0);
-  const auto t0 = std::chrono::steady_clock::now();
-  std::vector<std::vector<Eigen::VectorXf>> query_features;
-  for (size_t i = 0; i < queries.size(); ++i) {
-    query_features.push_back(QueryFeatures(p.features, static_cast<int>(i), c.kinds));
-  }
-  const curate::MultiQueryResult result = curate::QueryMany(c.tree, query_features, o.picks, o.unique_frames);
-  p.query_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  p.per_query.resize(queries.size());
-  for (size_t i = 0; i < queries.size(); ++i) {
-    for (int64_t item : result.per_query[i]) p.per_query[i].push_back(c.frame_of_item[item]);
-  }
-  for (int64_t item : result.unique) p.unique.push_back(c.frame_of_item[item]);
-  for (const auto& q : p.per_query) {
-    p.all.insert(p.all.end(), q.begin(), q.end());
-    p.offsets.push_back(static_cast<int64_t>(p.all.size()));
-  }
+  curate::FramePicks p = curate::PickFrames(c, crops, landmarks, o.picks, o.unique_frames);
   if (o.unique_frames > 0) {
     std::string used;
-    for (int q : result.picks) used += (used.empty() ? "" : ", ") + std::to_string(q);
+    for (int q : p.picks_per_level) used += (used.empty() ? "" : ", ") + std::to_string(q);
     if (static_cast<int64_t>(p.unique.size()) < o.unique_frames) {
       FC_WARN("curate query: {} unique frames asked for, the tree holds {}: all taken", o.unique_frames,
               p.unique.size());
     }
     FC_INFO("curate query: picks widened to ({}) for {} unique frames", used, p.unique.size());
   }
-  p.picks_per_level.assign(result.picks.begin(), result.picks.end());
   return p;
 }
 
 // The picks file: the unique frames, each query's picks, labels and poses.
 void WritePicks(const CurateQueryOptions& o, const StageContext& ctx, const io::Config& resolved,
                 const std::string& frames_path, const io::H5File& frames,
-                const std::vector<QueryItem>& queries, const QueryPicks& p) {
+                const std::vector<QueryItem>& queries, const curate::FramePicks& p) {
   const std::vector<int64_t> source_index =
       frames.ReadVector<int64_t>(io::frames::kSourceIndex, frames.NumFrames(io::frames::kCrop));
   std::vector<int64_t> unique_source;
@@ -378,7 +344,7 @@ StageSummary RunCurateQuery(const CurateQueryOptions& o, const StageContext& ctx
   }
   if (queries.empty()) throw FileIOError("curate query: no query face (no image gave a face)");
 
-  const QueryPicks picks = PickFrames(c, queries, o);
+  const curate::FramePicks picks = PickFrames(c, queries, o);
   WritePicks(o, ctx, resolved, frames_path, frames, queries, picks);
   if (o.contact_sheet) WriteQuerySheet(o, frames, size, queries, picks.per_query);
   FC_INFO("curate query: {} quer{} -> {} unique frames ({:.3f} ms per query in the tree) -> {}",
