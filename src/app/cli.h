@@ -173,10 +173,9 @@ io::Config BuildConfig(const StageFlags& flags);
 // Resolves Options for the stage: defaults, job file, --set, flags; then Check().
 // `resolved` receives the options as stored in the output's provenance.
 template <typename Options>
-Options ResolveStageOptions(const StageFlags& flags, stages::StageContext* ctx, io::Config* resolved) {
-  ctx->config = BuildConfig(flags);
-  Options options = io::ResolveOptions<Options>(ctx->config, flags.table);
-  io::StoreOptions(options, flags.table, resolved);
+Options ResolveStageOptions(const StageFlags& flags, io::Config* resolved) {
+  Options options = io::ResolveOptions<Options>(BuildConfig(flags), flags.table);
+  *resolved = stages::StoredOptions(options, flags.table);
   return options;
 }
 

@@ -119,9 +119,9 @@ template <typename Options, typename Summary>
 std::function<void(const StageFlags&, AppState*)> StageCommand(
     Summary (*run)(const Options&, const stages::StageContext&, const io::Config&)) {
   return [run](const StageFlags& flags, AppState* state) {
-    stages::StageContext ctx{state->comm, {}, state->command_line};
+    const stages::StageContext ctx{state->comm, state->command_line};
     io::Config resolved;
-    const Options options = ResolveStageOptions<Options>(flags, &ctx, &resolved);
+    const Options options = ResolveStageOptions<Options>(flags, &resolved);
     run(options, ctx, resolved);
   };
 }
@@ -156,8 +156,7 @@ CLI::App* AddStage(CLI::App* parent, AppState* state, const std::string& name,
   spec.path_keys = paths;
   spec.resolve = [](const io::Config& config, const std::string& instance) {
     Options options = io::ResolveOptions<Options>(config, instance);
-    io::Config resolved;
-    io::StoreOptions(options, instance, &resolved);
+    const io::Config resolved = stages::StoredOptions(options, instance);
     std::string out;
     if constexpr (HasOut<Options>::value) out = options.out;
     return std::make_pair(resolved.ToToml(), out);

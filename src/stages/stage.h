@@ -16,7 +16,6 @@ namespace facecap::stages {
 
 struct StageContext {
   dist::Comm comm = dist::Comm::Single();
-  io::Config config;          // job file + --set + flags
   std::string command_line;   // as typed, for provenance
 };
 
