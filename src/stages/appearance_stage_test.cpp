@@ -14,14 +14,19 @@
 #include "io/image_io.h"
 #include "io/rig_io.h"
 #include "io/texture_file.h"
+#include "stages/appearance_stage.h"
+#include "stages/eval_stage.h"
+#include "stages/render_stage.h"
 #include "stages/rig_stage.h"
 #include "stages/synth_clip_stage.h"
+#include "stages/track_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
 namespace facecap::stages {
 namespace {
 
+using testing::ReadText;
 using testing::RunFacecap;
 
 class Appearance : public ::testing::Test {
@@ -47,6 +52,39 @@ class Appearance : public ::testing::Test {
     return "appearance turntable --rig " + Clip() + " --texture " + Clip() +
            " --texture-dataset /identity/albedo --lighting none --views 30 --size 64 --batch 2 "
            "--sheet none --out " + out;
+  }
+  // Turntable(out) as options, for the stage called in-process.
+  static AppearanceTurntableOptions TurntableOptions(const std::string& out) {
+    AppearanceTurntableOptions o;
+    o.rig = Clip();
+    o.texture = Clip();
+    o.texture_dataset = "/identity/albedo";
+    o.lighting = "none";
+    o.views = 30;
+    o.size = 64;
+    o.run.batch = 2;
+    o.run.sheet = "none";
+    o.out = out;
+    return o;
+  }
+  // appearance gather of `views` into a texture of `texture_size` texels.
+  static AppearanceGatherOptions GatherOptions(const std::string& views, int texture_size,
+                                               const std::string& out) {
+    AppearanceGatherOptions o;
+    o.views = views;
+    o.texture_size = texture_size;
+    o.out = out;
+    return o;
+  }
+  // The JSON of eval appearance of `texture` against the clip's true albedo.
+  static std::string EvalAppearanceJson(const std::string& texture) {
+    EvalAppearanceOptions o;
+    o.truth = Clip();
+    o.texture = texture;
+    o.json = true;
+    o.out = texture + ".json";
+    RunInProcess(RunEvalAppearance, o, "eval.appearance");
+    return ReadText(o.out);
   }
   template <typename T>
   static std::vector<T> Read(const std::string& path, const std::string& name) {
@@ -97,7 +135,7 @@ TEST_F(Appearance, TurntableIsTheSameOnOneAndThreeRanksAndAfterAKill) {
 
 TEST_F(Appearance, GatheringTrueRendersCapturesTheTrueAlbedo) {
   const std::string views = dir_->File("views.h5");
-  ASSERT_EQ(RunFacecap(Turntable(views)).code, 0);
+  RunInProcess(RunAppearanceTurntable, TurntableOptions(views), "appearance.turntable");
   const std::string one = dir_->File("texture1.h5"), two = dir_->File("texture2.h5");
   auto g1 = RunFacecap("appearance gather --views " + views + " --texture-size 128 --out " + one, 1);
   ASSERT_EQ(g1.code, 0) << g1.output;
@@ -107,30 +145,33 @@ TEST_F(Appearance, GatheringTrueRendersCapturesTheTrueAlbedo) {
   EXPECT_TRUE(std::filesystem::exists(dir_->File("texture1.png")));
   EXPECT_TRUE(std::filesystem::exists(dir_->File("texture1.exr")));
   EXPECT_FALSE(std::filesystem::exists(dir_->File("texture2.png")));
-  auto eval = RunFacecap("eval appearance --truth " + Clip() + " --texture " + one);
-  ASSERT_EQ(eval.code, 0) << eval.output;
-  const double psnr = JsonValue(eval.output, "psnr_face_db");
-  const double flat = JsonValue(eval.output, "psnr_flat_db");
-  const double coverage = JsonValue(eval.output, "coverage");
-  EXPECT_GT(coverage, 0.95) << eval.output;
-  EXPECT_GT(psnr, 36.) << eval.output;
-  EXPECT_GT(psnr, flat + 6.) << eval.output;
+  const std::string eval = EvalAppearanceJson(one);
+  const double psnr = JsonValue(eval, "psnr_face_db");
+  const double flat = JsonValue(eval, "psnr_flat_db");
+  const double coverage = JsonValue(eval, "coverage");
+  EXPECT_GT(coverage, 0.95) << eval;
+  EXPECT_GT(psnr, 36.) << eval;
+  EXPECT_GT(psnr, flat + 6.) << eval;
   // The lit renders of the plain albedo are no capture of this person: far below.
   const std::string lit = dir_->File("lit.h5"), lit_texture = dir_->File("lit_texture.h5");
-  ASSERT_EQ(RunFacecap("appearance turntable --rig " + Clip() + " --views 30 --size 64 --sheet none --out " + lit).code, 0);
-  ASSERT_EQ(RunFacecap("appearance gather --views " + lit + " --texture-size 128 --out " + lit_texture).code, 0);
-  auto plain = RunFacecap("eval appearance --truth " + Clip() + " --texture " + lit_texture);
-  ASSERT_EQ(plain.code, 0) << plain.output;
-  EXPECT_LT(JsonValue(plain.output, "psnr_face_db"), psnr - 10.) << plain.output;
+  AppearanceTurntableOptions lit_turntable;
+  lit_turntable.rig = Clip();
+  lit_turntable.views = 30;
+  lit_turntable.size = 64;
+  lit_turntable.run.sheet = "none";
+  lit_turntable.out = lit;
+  RunInProcess(RunAppearanceTurntable, lit_turntable, "appearance.turntable");
+  RunInProcess(RunAppearanceGather, GatherOptions(lit, 128, lit_texture), "appearance.gather");
+  const std::string plain = EvalAppearanceJson(lit_texture);
+  EXPECT_LT(JsonValue(plain, "psnr_face_db"), psnr - 10.) << plain;
 }
 
 // appearance gather's output is a textured rig; render draws a textured rig with its texture,
 // and rig export embeds it into the glTF.
 TEST_F(Appearance, ATexturedRigIsRenderedAndExportedWithItsTexture) {
   const std::string views = dir_->File("rig_views.h5"), gathered = dir_->File("rig_texture.h5");
-  ASSERT_EQ(RunFacecap(Turntable(views)).code, 0);
-  auto g = RunFacecap("appearance gather --views " + views + " --texture-size 64 --out " + gathered);
-  ASSERT_EQ(g.code, 0) << g.output;
+  RunInProcess(RunAppearanceTurntable, TurntableOptions(views), "appearance.turntable");
+  RunInProcess(RunAppearanceGather, GatherOptions(views, 64, gathered), "appearance.gather");
   const rig::Rig rig = io::ReadRigFile(Clip());
   EXPECT_EQ(io::ReadRigFile(gathered).neutral, rig.neutral);
   EXPECT_EQ(io::ReadRigTexture(gathered).width, 64);
@@ -148,16 +189,22 @@ TEST_F(Appearance, ATexturedRigIsRenderedAndExportedWithItsTexture) {
   }
   for (const auto& [file, is_green] : {std::pair{green, true}, std::pair{Clip(), false}}) {
     const std::string png = dir_->File(is_green ? "green.png" : "generic.png");
-    auto r = RunFacecap("render --rig " + file + " --mode shaded --size 96 --out " + png);
-    ASSERT_EQ(r.code, 0) << r.output;
+    RenderStageOptions render;
+    render.rig = file;
+    render.mode = "shaded";
+    render.size = 96;
+    render.out = png;
+    RunInProcess(RunRender, render, "render");
     const Image8 image = io::ReadImage8(png);
     const uint8_t* centre = image.pixel(48, 48);
     EXPECT_EQ(centre[1] > 3 * std::max(centre[0], centre[2]), is_green)
         << file << ": centre pixel " << int(centre[0]) << " " << int(centre[1]) << " " << int(centre[2]);
   }
   const std::string glb = dir_->File("green.glb");
-  auto e = RunFacecap("rig export --rig " + green + " --gltf " + glb);
-  ASSERT_EQ(e.code, 0) << e.output;
+  RigExportOptions rig_export;
+  rig_export.rig = green;
+  rig_export.gltf = glb;
+  RunInProcess(RunRigExport, rig_export, "rig.export");
   std::ifstream in(glb, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(bytes.find("\"baseColorTexture\":{\"index\":0}"), std::string::npos);
@@ -167,9 +214,12 @@ TEST_F(Appearance, ATexturedRigIsRenderedAndExportedWithItsTexture) {
 
 TEST_F(Appearance, TrackedFramesBecomeViewsWhoseUVImageCoversTheFace) {
   const std::string track = dir_->File("track.h5"), views = dir_->File("frame_views.h5");
-  auto t = RunFacecap("track --rig " + Clip() + " --targets " + Clip() +
-                      " --targets-dataset /frames/segmentation --out " + track);
-  ASSERT_EQ(t.code, 0) << t.output;
+  TrackOptions tracking;
+  tracking.rig = Clip();
+  tracking.targets = Clip();
+  tracking.targets_dataset = "/frames/segmentation";
+  tracking.out = track;
+  RunInProcess(RunTrack, tracking, "track");
   auto r = RunFacecap("appearance frames --frames " + Clip() + " --track " + track + " --rig " +
                       Clip() + " --out " + views, 2);
   ASSERT_EQ(r.code, 0) << r.output;
@@ -188,35 +238,47 @@ TEST_F(Appearance, TrackedFramesBecomeViewsWhoseUVImageCoversTheFace) {
   ASSERT_GT(either, 0);
   EXPECT_GT(static_cast<double>(both) / either, 0.9);
   const std::string texture = dir_->File("frames_texture.h5");
-  auto g = RunFacecap("appearance gather --views " + views + " --texture-size 64 --out " + texture);
-  ASSERT_EQ(g.code, 0) << g.output;
-  EXPECT_GT(JsonValue(RunFacecap("eval appearance --truth " + Clip() + " --texture " + texture).output,
-                      "coverage"), 0.5);
+  RunInProcess(RunAppearanceGather, GatherOptions(views, 64, texture), "appearance.gather");
+  EXPECT_GT(JsonValue(EvalAppearanceJson(texture), "coverage"), 0.5);
   // Frame 1 held out of the gathering, then re-rendered with the texture of frame 0: the
   // person's own colours explain it better than the generic texture does.
   const std::string held = dir_->File("frames_texture_held.h5");
-  auto h = RunFacecap("appearance gather --views " + views + " --texture-size 64 --holdout-every 2 --out " + held);
-  ASSERT_EQ(h.code, 0) << h.output;
+  AppearanceGatherOptions held_out = GatherOptions(views, 64, held);
+  held_out.holdout_every = 2;
+  RunInProcess(RunAppearanceGather, held_out, "appearance.gather");
   const auto particles = [](const std::string& path) {
     return io::H5File::OpenRead(path).GetIntAttribute("/texture", "particles");
   };
   EXPECT_LT(particles(held), particles(texture));
   EXPECT_GT(particles(held), 0);
-  auto e = RunFacecap("eval rerender --views " + views + " --texture " + held + " --holdout-every 2");
-  ASSERT_EQ(e.code, 0) << e.output;
-  EXPECT_EQ(JsonValue(e.output, "frames"), 1.) << e.output;
-  EXPECT_GT(JsonValue(e.output, "psnr_captured_db"), JsonValue(e.output, "psnr_generic_db") + 3.)
-      << e.output;
+  EvalRerenderOptions rerender;
+  rerender.views = views;
+  rerender.texture = held;
+  rerender.holdout_every = 2;
+  rerender.json = true;
+  rerender.out = dir_->File("rerender.json");
+  RunInProcess(RunEvalRerender, rerender, "eval.rerender");
+  const std::string e = ReadText(rerender.out);
+  EXPECT_EQ(JsonValue(e, "frames"), 1.) << e;
+  EXPECT_GT(JsonValue(e, "psnr_captured_db"), JsonValue(e, "psnr_generic_db") + 3.) << e;
 }
 
 TEST_F(Appearance, BadInputsNameTheFile) {
   const std::string views = dir_->File("views_bad.h5");
-  auto no_texture = RunFacecap("appearance turntable --rig " + Clip() + " --texture " +
-                               dir_->File("rig.h5") + " --texture-dataset /identity/albedo --out " + views);
-  EXPECT_EQ(no_texture.code, kExitInput) << no_texture.output;
-  EXPECT_NE(no_texture.output.find("rig.h5: no texture /identity/albedo"), std::string::npos)
-      << no_texture.output;
-  ASSERT_EQ(RunFacecap(Turntable(views)).code, 0);
+  AppearanceTurntableOptions no_texture;
+  no_texture.rig = Clip();
+  no_texture.texture = dir_->File("rig.h5");
+  no_texture.texture_dataset = "/identity/albedo";
+  no_texture.out = views;
+  try {
+    RunInProcess(RunAppearanceTurntable, no_texture, "appearance.turntable");
+    ADD_FAILURE() << "no error for " << no_texture.texture;
+  } catch (const FileIOError& e) {
+    EXPECT_EQ(e.code(), kExitInput);
+    EXPECT_NE(std::string(e.what()).find("rig.h5: no texture /identity/albedo"), std::string::npos)
+        << e.what();
+  }
+  RunInProcess(RunAppearanceTurntable, TurntableOptions(views), "appearance.turntable");
   // Images of another count than the views: exit 3 naming both files.
   auto mismatch = RunFacecap("appearance gather --views " + views + " --images " + Clip() +
                              " --out " + dir_->File("never.h5"));

@@ -10,12 +10,15 @@
 
 #include "io/hdf5.h"
 #include "io/rig_io.h"
+#include "stages/assemble_stage.h"
 #include "stages/rig_stage.h"
+#include "stages/scans_stage.h"
 #include "testing/testing.h"
 
 namespace facecap::stages {
 namespace {
 
+using testing::ReadText;
 using testing::RunFacecap;
 
 double Nested(const std::string& json, const std::string& object, const std::string& key) {
@@ -41,8 +44,10 @@ TEST(AssembleStage, TheDemoHeadGetsItsPartsAndExportsThemAsMeshes) {
   EXPECT_EQ(shape[0], 52);  // one delta per shape of the rig
   EXPECT_EQ(f.GetIntAttribute("/parts", "iris"), 0);  // no albedo to match: the first iris
 
-  r = RunFacecap("rig export --rig " + tmp.File("assembled.h5") + " --gltf " + tmp.File("assembled.glb"));
-  ASSERT_EQ(r.code, 0) << r.output;
+  RigExportOptions rig_export;
+  rig_export.rig = tmp.File("assembled.h5");
+  rig_export.gltf = tmp.File("assembled.glb");
+  RunInProcess(RunRigExport, rig_export, "rig.export");
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(tmp.File("assembled.glb"), 0);
   ASSERT_NE(scene, nullptr) << importer.GetErrorString();
@@ -59,12 +64,21 @@ TEST(AssembleStage, TheDemoHeadGetsItsPartsAndExportsThemAsMeshes) {
 
 TEST(AssembleStage, HeldOutPeoplesPartsClearTheLidsAndFollowTheJaw) {
   testing::TempDir tmp;
-  auto r = RunFacecap("scans synth --people 4 --test-people 2 --texture-size 0 --threads 1 --out " +
-                      tmp.File("scans.h5"));
-  ASSERT_EQ(r.code, 0) << r.output;
-  r = RunFacecap("eval assembly --scans " + tmp.File("scans.h5") + " --combinations 200");
-  ASSERT_EQ(r.code, 0) << r.output;
-  const std::string json = r.output.substr(r.output.find("{\"people\""));
+  ScansSynthOptions scans;
+  scans.people = 4;
+  scans.test_people = 2;
+  scans.texture_size = 0;
+  scans.threads = 1;
+  scans.out = tmp.File("scans.h5");
+  RunInProcess(RunScansSynth, scans, "scans.synth");
+  EvalAssemblyOptions eval;
+  eval.scans = tmp.File("scans.h5");
+  eval.combinations = 200;
+  eval.json = true;
+  eval.out = tmp.File("assembly.json");
+  RunInProcess(RunEvalAssembly, eval, "eval.assembly");
+  const std::string text = ReadText(eval.out);
+  const std::string json = text.substr(text.find("{\"people\""));
   // Assembled: lash roots on the lids, no lid inside an eyeball, lower teeth with the jaw.
   EXPECT_LT(Nested(json, "assembled", "lash_root_mean_mm"), 0.2);
   EXPECT_LT(Nested(json, "assembled", "penetration_max_mm"), 0.1);

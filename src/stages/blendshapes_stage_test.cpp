@@ -10,6 +10,8 @@
 #include "io/hdf5.h"
 #include "io/mesh_io.h"
 #include "io/rig_io.h"
+#include "stages/blendshapes_stage.h"
+#include "stages/scans_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -22,8 +24,11 @@ class Blendshapes : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    auto r = RunFacecap("scans synth --people 5 --test-people 1 --out " + Scans());
-    ASSERT_EQ(r.code, 0) << r.output;
+    ScansSynthOptions synth;
+    synth.people = 5;
+    synth.test_people = 1;
+    synth.out = Scans();
+    RunInProcess(RunScansSynth, synth, "scans.synth");
   }
   static void TearDownTestSuite() { delete dir_; }
   static std::string Scans() { return dir_->File("scans.h5"); }
@@ -31,6 +36,22 @@ class Blendshapes : public ::testing::Test {
     return "blendshapes train --scans " + Scans() + " --image-size 32 --channels 4 --residual-blocks 1"
            " --estimation-epochs 2 --tuning-epochs 1 --batch 3 --threads 1 --checkpoint-every 100"
            " --weight-decay 0.5 --out " + out;
+  }
+  // The options of Train(out), for a run in this process.
+  static BlendshapesTrainOptions TrainOptions(const std::string& out) {
+    BlendshapesTrainOptions o;
+    o.scans = Scans();
+    o.image_size = 32;
+    o.net.channels = 4;
+    o.net.residual_blocks = 1;
+    o.estimation_epochs = 2;
+    o.tuning_epochs = 1;
+    o.batch = 3;
+    o.threads = 1;
+    o.checkpoint_every = 100;
+    o.net.weight_decay = 0.5f;
+    o.out = out;
+    return o;
   }
   // Person 4's neutral (to *neutral) as an OBJ through `blendshapes infer --model model`: the
   // rig it writes (an empty one when it fails).
@@ -41,9 +62,17 @@ class Blendshapes : public ::testing::Test {
     scans.ReadFrames<float>("/scans/people/neutral", 4, 1, neutral->data());
     const std::string obj = dir_->File(tag + "_neutral.obj"), out = dir_->File(tag + "_rig.h5");
     io::ExportMeshObj(*neutral, tmpl.triangles, nullptr, nullptr, obj);
-    auto r = RunFacecap("blendshapes infer --model " + model + " --neutral " + obj + " --out " + out);
-    EXPECT_EQ(r.code, 0) << r.output;
-    return r.code == 0 ? io::ReadRigFile(out) : rig::Rig();
+    BlendshapesInferOptions o;
+    o.model = model;
+    o.neutral = obj;
+    o.out = out;
+    try {
+      RunInProcess(RunBlendshapesInfer, o, "blendshapes.infer");
+    } catch (const Error& e) {
+      ADD_FAILURE() << e.what();
+      return rig::Rig();
+    }
+    return io::ReadRigFile(out);
   }
   static std::vector<float> Parameters(const std::string& path) {
     return io::H5File::OpenRead(path).ReadVector<float>("/model/parameters");
@@ -65,7 +94,7 @@ TEST_F(Blendshapes, TwoAndThreeRanksKeepIdenticalParameters) {
 
 TEST_F(Blendshapes, StoppedTrainingResumesToTheUninterruptedParameters) {
   const std::string straight = dir_->File("straight.h5"), stopped = dir_->File("stopped.h5");
-  ASSERT_EQ(RunFacecap(Train(straight)).code, 0);
+  RunInProcess(RunBlendshapesTrain, TrainOptions(straight), "blendshapes.train");
   auto stop = RunFacecap(Train(stopped), 0, "FACECAP_FAULT_AFTER_STEPS=3");
   EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
   EXPECT_FALSE(std::filesystem::exists(stopped));
@@ -81,11 +110,15 @@ TEST_F(Blendshapes, StoppedTrainingResumesToTheUninterruptedParameters) {
 TEST_F(Blendshapes, PrincipalComponentAmplitudeResumesAndTravelsInTheModelFile) {
   const std::string straight = dir_->File("pca_straight.h5"), stopped = dir_->File("pca_stopped.h5");
   const std::string flags = " --amplitude-components 3";
-  ASSERT_EQ(RunFacecap(Train(straight) + flags).code, 0);
+  auto pca = [](const std::string& out) {
+    BlendshapesTrainOptions o = TrainOptions(out);
+    o.net.amplitude_components = 3;
+    return o;
+  };
+  RunInProcess(RunBlendshapesTrain, pca(straight), "blendshapes.train");
   auto stop = RunFacecap(Train(stopped) + flags, 0, "FACECAP_FAULT_AFTER_STEPS=3");
   EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
-  auto rerun = RunFacecap(Train(stopped) + flags);
-  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  RunInProcess(RunBlendshapesTrain, pca(stopped), "blendshapes.train");
   EXPECT_EQ(Parameters(straight), Parameters(stopped));
   const io::H5File f = io::H5File::OpenRead(straight);
   io::Shape shape;
@@ -104,11 +137,17 @@ TEST_F(Blendshapes, IterateAveragingEndsOnTheMeanAndResumes) {
     const std::string tuning = "--tuning-epochs 1";
     return command.replace(command.find(tuning), tuning.size(), "--tuning-epochs 0");
   };
+  auto train_options = [](const std::string& out, bool averaged) {
+    BlendshapesTrainOptions o = TrainOptions(out);
+    if (averaged) o.average_fraction = 0.5f;
+    o.tuning_epochs = 0;
+    return o;
+  };
   const std::string last = dir_->File("avg_last.h5"), third = dir_->File("avg_third.h5");
   const std::string mean = dir_->File("avg_mean.h5"), resumed = dir_->File("avg_resumed.h5");
-  ASSERT_EQ(RunFacecap(train(last, false)).code, 0);
+  RunInProcess(RunBlendshapesTrain, train_options(last, false), "blendshapes.train");
   ASSERT_EQ(RunFacecap(train(third, false), 0, "FACECAP_FAULT_AFTER_STEPS=3").code, kExitInterrupted);
-  ASSERT_EQ(RunFacecap(train(mean, true)).code, 0);
+  RunInProcess(RunBlendshapesTrain, train_options(mean, true), "blendshapes.train");
   const std::vector<float> p4 = Parameters(last), averaged = Parameters(mean);
   const std::vector<float> state = io::H5File::OpenRead(third + ".checkpoint").ReadVector<float>("/optimizer/state");
   ASSERT_EQ(averaged.size(), p4.size());
@@ -124,16 +163,18 @@ TEST_F(Blendshapes, IterateAveragingEndsOnTheMeanAndResumes) {
   auto stop = RunFacecap(train(resumed, true), 0, "FACECAP_FAULT_AFTER_STEPS=3");
   EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
   EXPECT_TRUE(io::H5File::OpenRead(resumed + ".checkpoint").Exists("/optimizer/parameter_sum"));
-  auto rerun = RunFacecap(train(resumed, true));
-  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  RunInProcess(RunBlendshapesTrain, train_options(resumed, true), "blendshapes.train");
   EXPECT_EQ(Parameters(resumed), averaged);
 }
 
 TEST_F(Blendshapes, BaselinesEvalAndInferenceProduceTheTableAndARig) {
   const std::string model = dir_->File("model.h5"), baselines = dir_->File("baselines.h5");
-  ASSERT_EQ(RunFacecap(Train(model)).code, 0);
-  auto b = RunFacecap("blendshapes baselines --scans " + Scans() + " --iterations 1 --out " + baselines);
-  ASSERT_EQ(b.code, 0) << b.output;
+  RunInProcess(RunBlendshapesTrain, TrainOptions(model), "blendshapes.train");
+  BlendshapesBaselinesOptions b;
+  b.scans = Scans();
+  b.example.iterations = 1;
+  b.out = baselines;
+  RunInProcess(RunBlendshapesBaselines, b, "blendshapes.baselines");
   const std::string shapes = dir_->File("shapes.h5");
   auto e = RunFacecap("eval blendshapes --scans " + Scans() + " --baselines " + baselines + " --model " + model +
                       " --shapes " + shapes + " --json");
@@ -195,8 +236,12 @@ TEST_F(Blendshapes, BaselinesEvalAndInferenceProduceTheTableAndARig) {
   EXPECT_EQ(personal.neutral, neutral);
   // The same person named in the database instead of an OBJ: the same rig.
   const std::string from_scans = dir_->File("from_scans_rig.h5");
-  auto r = RunFacecap("blendshapes infer --model " + model + " --scans " + Scans() + " --person 4 --out " + from_scans);
-  ASSERT_EQ(r.code, 0) << r.output;
+  BlendshapesInferOptions infer;
+  infer.model = model;
+  infer.scans = Scans();
+  infer.person = "4";
+  infer.out = from_scans;
+  RunInProcess(RunBlendshapesInfer, infer, "blendshapes.infer");
   const rig::Rig again = io::ReadRigFile(from_scans);
   EXPECT_EQ(again.neutral, personal.neutral);
   ASSERT_EQ(again.NumShapes(), personal.NumShapes());
@@ -204,10 +249,17 @@ TEST_F(Blendshapes, BaselinesEvalAndInferenceProduceTheTableAndARig) {
     EXPECT_EQ(again.shapes[i].delta.vertex, personal.shapes[i].delta.vertex);
     EXPECT_EQ(again.shapes[i].delta.offset, personal.shapes[i].delta.offset);
   }
-  auto both = RunFacecap("blendshapes infer --model " + model + " --scans " + Scans() + " --neutral " +
-                         dir_->File("plain_neutral.obj") + " --out " + dir_->File("both.h5"));
-  EXPECT_NE(both.code, 0);
-  EXPECT_NE(both.output.find("either neutral"), std::string::npos) << both.output;
+  BlendshapesInferOptions both;
+  both.model = model;
+  both.scans = Scans();
+  both.neutral = dir_->File("plain_neutral.obj");
+  both.out = dir_->File("both.h5");
+  try {
+    RunInProcess(RunBlendshapesInfer, both, "blendshapes.infer");
+    ADD_FAILURE() << "blendshapes infer with both neutral and scans did not fail";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("either neutral"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -13,7 +13,11 @@
 #include "render/camera.h"
 #include "render/framing.h"
 #include "rig/demo_head.h"
+#include "stages/curate_stage.h"
+#include "stages/ingest_stage.h"
+#include "stages/render_stage.h"
 #include "stages/rig_stage.h"
+#include "stages/synth_clip_stage.h"
 #include "testing/testing.h"
 
 namespace facecap::stages {
@@ -96,17 +100,33 @@ class Curate : public ::testing::Test {
     RigDemoOptions demo_rig;
     demo_rig.out = File("rig.h5");
     RunInProcess(RunRigDemo, demo_rig, "rig.demo");
-    auto r = RunFacecap("synth clip --rig " + File("rig.h5") +
-                        " --frames 60 --size 160 --video --out " + File("clip.h5"));
-    ASSERT_EQ(r.code, 0) << r.output;
-    r = RunFacecap("ingest --video " + File("clip.mp4") + " --out " + File("frames.h5") + " --crop-size 96");
-    ASSERT_EQ(r.code, 0) << r.output;
-    r = RunFacecap("curate build --frames " + File("frames.h5") + " --out " + File("curation.h5") +
-                   " --clusters 4,2");
-    ASSERT_EQ(r.code, 0) << r.output;
+    SynthClipOptions clip;
+    clip.rig = demo_rig.out;
+    clip.clip.frames = 60;
+    clip.clip.size = 160;
+    clip.video = true;
+    clip.out = File("clip.h5");
+    RunInProcess(RunSynthClip, clip, "synth.clip");
+    IngestOptions ingest;
+    ingest.video = File("clip.mp4");
+    ingest.out = File("frames.h5");
+    ingest.crop_size = 96;
+    RunInProcess(RunIngest, ingest, "ingest");
+    CurateBuildOptions build;
+    build.frames = ingest.out;
+    build.out = File("curation.h5");
+    build.clusters = {4, 2};
+    RunInProcess(RunCurateBuild, build, "curate.build");
   }
   static void TearDownTestSuite() { delete dir_; }
   static std::string File(const std::string& name) { return dir_->File(name); }
+  // curate query of the suite's tree, its picks to `out`.
+  static CurateQueryOptions Query(const std::string& out) {
+    CurateQueryOptions o;
+    o.curation = File("curation.h5");
+    o.out = out;
+    return o;
+  }
   static testing::TempDir* dir_;
 };
 
@@ -136,10 +156,10 @@ TEST_F(Curate, QueryByFrameWritesPicksAndADefaultContactSheet) {
   const std::vector<int64_t> rows = io::H5File::OpenRead(File("curation.h5")).ReadVector<int64_t>("/features/frame");
   ASSERT_FALSE(rows.empty());
   const int64_t frame = rows[rows.size() / 2];
-  auto r = RunFacecap("curate query --curation " + File("curation.h5") + " --frame " + std::to_string(frame) +
-                      " --out " + File("by_frame.h5"));
-  ASSERT_EQ(r.code, 0) << r.output;
-  ASSERT_TRUE(std::filesystem::exists(File("by_frame.png"))) << r.output;
+  CurateQueryOptions by_frame = Query(File("by_frame.h5"));
+  by_frame.frame = frame;
+  RunInProcess(RunCurateQuery, by_frame, "curate.query");
+  ASSERT_TRUE(std::filesystem::exists(File("by_frame.png")));
   const Image8 sheet = io::ReadImage8(File("by_frame.png"));
   EXPECT_GT(sheet.width, 2 * 96);
   const io::H5File q = io::H5File::OpenRead(File("by_frame.h5"));
@@ -148,9 +168,10 @@ TEST_F(Curate, QueryByFrameWritesPicksAndADefaultContactSheet) {
   EXPECT_LE(picks.size(), 6u);  // 2 poses x 2 lightings x 1 expression
   EXPECT_NE(std::find(picks.begin(), picks.end(), frame), picks.end());  // itself, at distance 0
 
-  auto none = RunFacecap("curate query --curation " + File("curation.h5") + " --frame " +
-                         std::to_string(frame) + " --out " + File("no_sheet.h5") + " --no-contact-sheet");
-  ASSERT_EQ(none.code, 0) << none.output;
+  CurateQueryOptions none = Query(File("no_sheet.h5"));
+  none.frame = frame;
+  none.contact_sheet = false;
+  RunInProcess(RunCurateQuery, none, "curate.query");
   EXPECT_FALSE(std::filesystem::exists(File("no_sheet.png")));
 }
 
@@ -158,25 +179,31 @@ TEST_F(Curate, TurntableRendersReachATargetOfUniqueFrames) {
   const std::string folder = File("turntable");
   std::filesystem::create_directories(folder);
   for (int yaw : {-20, 0, 20}) {
-    auto r = RunFacecap("render --rig " + File("rig.h5") + " --size 200 --yaw-deg " + std::to_string(yaw) +
-                        " --out " + folder + "/yaw_" + std::to_string(yaw + 100) + ".png");
-    ASSERT_EQ(r.code, 0) << r.output;
+    RenderStageOptions render;
+    render.rig = File("rig.h5");
+    render.size = 200;
+    render.yaw_deg = static_cast<float>(yaw);
+    render.out = folder + "/yaw_" + std::to_string(yaw + 100) + ".png";
+    RunInProcess(RunRender, render, "render");
   }
   const int64_t found = static_cast<int64_t>(
       io::H5File::OpenRead(File("curation.h5")).ReadVector<int64_t>("/features/frame").size());
   const int64_t target = std::min<int64_t>(30, found - 2);
-  auto r = RunFacecap("curate query --curation " + File("curation.h5") + " --renders " + folder +
-                      " --unique-frames " + std::to_string(target) + " --out " + File("turntable.h5"));
-  ASSERT_EQ(r.code, 0) << r.output;
+  CurateQueryOptions turntable = Query(File("turntable.h5"));
+  turntable.renders = folder;
+  turntable.unique_frames = target;
+  RunInProcess(RunCurateQuery, turntable, "curate.query");
   const io::H5File q = io::H5File::OpenRead(File("turntable.h5"));
-  EXPECT_EQ(static_cast<int64_t>(q.ReadVector<int64_t>("/picks/frames").size()), target) << r.output;
-  EXPECT_EQ(q.ReadStrings("/queries/labels").size(), 3u) << r.output;
+  EXPECT_EQ(static_cast<int64_t>(q.ReadVector<int64_t>("/picks/frames").size()), target);
+  EXPECT_EQ(q.ReadStrings("/queries/labels").size(), 3u);
   EXPECT_TRUE(std::filesystem::exists(File("turntable.png")));
 
   // More than the tree holds: every frame.
-  r = RunFacecap("curate query --curation " + File("curation.h5") + " --renders " + folder +
-                 " --unique-frames 100000 --out " + File("all.h5") + " --no-contact-sheet");
-  ASSERT_EQ(r.code, 0) << r.output;
+  CurateQueryOptions all = Query(File("all.h5"));
+  all.renders = folder;
+  all.unique_frames = 100000;
+  all.contact_sheet = false;
+  RunInProcess(RunCurateQuery, all, "curate.query");
   EXPECT_EQ(static_cast<int64_t>(io::H5File::OpenRead(File("all.h5")).ReadVector<int64_t>("/picks/frames").size()), found);
 }
 

@@ -7,8 +7,10 @@
 #include <gtest/gtest.h>
 
 #include "io/hdf5.h"
+#include "stages/eval_stage.h"
 #include "stages/rig_stage.h"
 #include "stages/synth_stage.h"
+#include "stages/track_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -32,9 +34,12 @@ class DatasetShapes : public ::testing::Test {
     samples.sample.count = 3;
     samples.sample.size = 48;
     RunInProcess(RunSynthSamples, samples, "synth.samples");
-    const auto r = RunFacecap("track --rig " + rig_ + " --targets " + truth_ +
-                              " --targets-dataset /samples/segmentation --out " + track_);
-    ASSERT_EQ(r.code, 0) << r.output;
+    TrackOptions track;
+    track.rig = rig_;
+    track.targets = truth_;
+    track.targets_dataset = "/samples/segmentation";
+    track.out = track_;
+    RunInProcess(RunTrack, track, "track");
   }
 
   // Replaces `name` of the truth file by a [rows, cols] dataset of zeros.
@@ -49,22 +54,34 @@ class DatasetShapes : public ::testing::Test {
   testing::CommandResult Eval() {
     return RunFacecap("eval track --truth " + truth_ + " --track " + track_ + " --rig " + rig_);
   }
+  // The options Eval() gives on the command line.
+  EvalTrackOptions EvalOptions() const {
+    EvalTrackOptions o;
+    o.truth = truth_;
+    o.track = track_;
+    o.rig = rig_;
+    return o;
+  }
 
   testing::TempDir dir_;
   std::string rig_, truth_, track_;
 };
 
 TEST_F(DatasetShapes, EvalTrackRunsOnTheUntouchedFiles) {
-  const auto r = Eval();
-  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NO_THROW(RunInProcess(RunEvalTrack, EvalOptions(), "eval.track"));
 }
 
 TEST_F(DatasetShapes, TruthWeightsWithAColumnMissingAreAnInputError) {
   Reshape("/samples/weights", 3, 51);
-  const auto r = Eval();
-  EXPECT_EQ(r.code, kExitInput) << r.output;
-  EXPECT_NE(r.output.find(truth_), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("/samples/weights"), std::string::npos) << r.output;
+  try {
+    RunInProcess(RunEvalTrack, EvalOptions(), "eval.track");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(e.code(), kExitInput) << what;
+    EXPECT_NE(what.find(truth_), std::string::npos) << what;
+    EXPECT_NE(what.find("/samples/weights"), std::string::npos) << what;
+  }
 }
 
 TEST_F(DatasetShapes, TruthPosesOfTwoColumnsAreAnInputError) {

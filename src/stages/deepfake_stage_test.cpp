@@ -11,6 +11,7 @@
 #include "io/hdf5.h"
 #include "nn/deepfake.h"
 #include "nn/deepfake_io.h"
+#include "stages/deepfake_stage.h"
 #include "stages/rig_stage.h"
 #include "stages/synth_stage.h"
 #include "testing/testing.h"
@@ -73,6 +74,60 @@ class DeepfakeStage : public ::testing::Test {
            " --set deepfake.train.loss.region_l1_weight=2 --set deepfake.train.loss.gradient_clip=0"
            " --set deepfake.train.average_decay=0 --set deepfake.train.augment.random_background=0"
            " --set deepfake.train.paired_fraction=0.5 --out " + out;
+  }
+  // The options Train(out, steps, encoder_width) gives on the command line, on one torch
+  // thread as kEnv gives the command (threads 1 does not read OMP_NUM_THREADS).
+  static DeepfakeTrainOptions TrainOptions(const std::string& out, int steps, int encoder_width = 8) {
+    DeepfakeTrainOptions o;
+    o.a = File("samples1.h5");
+    o.b = File("b.h5");
+    o.network.size = 32;
+    o.network.latent_channels = 8;
+    o.network.encoder_width = encoder_width;
+    o.network.decoder_width = 8;
+    o.network.discriminator_width = 8;
+    o.batch = 6;
+    o.checkpoint_every = 4;
+    o.preview_every = 4;
+    o.progress_seconds = 0.01;
+    o.steps = steps;
+    o.network.skips = 0;
+    o.network.decoder_b_width = 0;
+    o.network.input_skip_width = 0;
+    o.palette_head = false;
+    o.loss.palette_weight = 0;
+    o.loss.dice_weight = 0;
+    o.loss.region_l1_weight = 2;
+    o.loss.gradient_clip = 0;
+    o.average_decay = 0;
+    o.augment.random_background = 0;
+    o.paired_fraction = 0.5;
+    o.threads = 1;
+    o.out = out;
+    return o;
+  }
+  // deepfake infer --model MODEL --frames b.h5 --out OUT's options, on one torch thread as
+  // kEnv gives the command.
+  static DeepfakeInferOptions InferOptions(const std::string& model, const std::string& out) {
+    DeepfakeInferOptions o;
+    o.model = model;
+    o.frames = File("b.h5");
+    o.threads = 1;
+    o.out = out;
+    return o;
+  }
+  // What the command would end with for a stage run in-process: code 0, or the exit code of
+  // the error it throws, with the error's message as the output.
+  template <class Options>
+  static testing::CommandResult InProcessResult(
+      StageSummary (*run)(const Options&, const StageContext&, const io::Config&),
+      const Options& options, const std::string& table) {
+    try {
+      RunInProcess(run, options, table);
+      return {0, ""};
+    } catch (const Error& e) {
+      return {e.code(), e.what()};
+    }
   }
   static std::vector<std::string> RankHashes(const std::string& path) {
     io::H5File f = io::H5File::OpenRead(path);
@@ -177,7 +232,7 @@ TEST_F(DeepfakeStage, StoppedAndKilledRunsContinueToTheStraightResult) {
 
 TEST_F(DeepfakeStage, CheckpointsThatDoNotFitAreRefusedByName) {
   const std::string out = File("fit.h5");
-  ASSERT_EQ(RunFacecap(Train(out, 2), 0, kEnv).code, 0);
+  RunInProcess(RunDeepfakeTrain, TrainOptions(out, 2), "deepfake.train");
   // Other options than the checkpoint was trained with.
   auto other = RunFacecap(Train(out, 4, 12), 0, kEnv);
   EXPECT_EQ(other.code, kExitUsage) << other.output;
@@ -187,8 +242,8 @@ TEST_F(DeepfakeStage, CheckpointsThatDoNotFitAreRefusedByName) {
     io::H5File f = io::H5File::OpenReadWrite(out);
     f.SetAttribute("/weights", "decoder_width", static_cast<int64_t>(16));
   }
-  auto mismatch = RunFacecap("deepfake infer --model " + out + " --frames " + File("b.h5") +
-                             " --out " + File("mismatch_translated.h5"), 0, kEnv);
+  auto mismatch = InProcessResult(RunDeepfakeInfer, InferOptions(out, File("mismatch_translated.h5")),
+                                  "deepfake.infer");
   EXPECT_EQ(mismatch.code, kExitInput) << mismatch.output;
   EXPECT_NE(mismatch.output.find("/weights/decoder_a/in/weight has shape [16, 8, 3, 3], the "
                                  "network expects [32, 8, 3, 3]"), std::string::npos) << mismatch.output;
@@ -205,8 +260,11 @@ TEST_F(DeepfakeStage, CheckpointsThatDoNotFitAreRefusedByName) {
 // prior correction of the palette term's class weights, which training stores.)
 TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
   const std::string model = File("infer_model.h5");
-  ASSERT_EQ(RunFacecap(Train(model, 3) + " --palette-head --palette-weight 1 --average-decay 0.5",
-                       0, kEnv).code, 0);
+  DeepfakeTrainOptions train = TrainOptions(model, 3);
+  train.palette_head = true;
+  train.loss.palette_weight = 1;
+  train.average_decay = 0.5;
+  RunInProcess(RunDeepfakeTrain, train, "deepfake.train");
   const std::string one = File("one.h5"), two = File("two.h5");
   const std::string args = "deepfake infer --model " + model + " --frames " + File("b.h5") +
                            " --batch 5 --overlay-count 3 --shift-average 1 --prior-correction 0.5 --out ";
@@ -216,8 +274,12 @@ TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
     EXPECT_EQ(static_cast<int64_t>(weights.size()), m.GetIntAttribute("/weights", "palette_colors"));
     EXPECT_GT(weights.front(), 0.f);  // the background
   }
-  auto r1 = RunFacecap(args + one, 0, kEnv);
-  ASSERT_EQ(r1.code, 0) << r1.output;
+  DeepfakeInferOptions infer_one = InferOptions(model, one);
+  infer_one.batch = 5;
+  infer_one.overlay_count = 3;
+  infer_one.shift_average = 1;
+  infer_one.prior_correction = 0.5;
+  RunInProcess(RunDeepfakeInfer, infer_one, "deepfake.infer");
   auto r2 = RunFacecap(args + two, 2, kEnv);
   ASSERT_EQ(r2.code, 0) << r2.output;
   EXPECT_NE(r2.output.find("flip-averaged labels"), std::string::npos) << r2.output;
@@ -245,16 +307,18 @@ TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
 // segmentation than after unpaired training. Of several paired clips, one without the frames
 // and their segmentation is named.
 TEST_F(DeepfakeStage, PairedExamplesTeachTheTranslation) {
-  auto error = [&](const std::string& extra) {
-    const std::string model = File("paired_model" + std::to_string(extra.size()) + ".h5");
-    const std::string out = File("paired_translated" + std::to_string(extra.size()) + ".h5");
-    auto t = RunFacecap(Train(model, 150) + extra, 0, kEnv);
-    EXPECT_EQ(t.code, 0) << t.output;
+  // `extra` sets the options of the training beyond TrainOptions; `name` names its files.
+  auto error = [&](const std::string& name, auto extra) {
+    const std::string model = File("paired_model_" + name + ".h5");
+    const std::string out = File("paired_translated_" + name + ".h5");
+    DeepfakeTrainOptions train = TrainOptions(model, 150);
+    extra(&train);
+    RunInProcess(RunDeepfakeTrain, train, "deepfake.train");
     // Without flip averaging: these frames are segmentations recoloured, so a left region's
     // colour differs from its right one's, which no face shows; mirrored, they read wrong.
-    auto i = RunFacecap("deepfake infer --no-flip-average --model " + model + " --frames " +
-                        File("b.h5") + " --out " + out, 0, kEnv);
-    EXPECT_EQ(i.code, 0) << i.output;
+    DeepfakeInferOptions infer = InferOptions(model, out);
+    infer.flip_average = false;
+    RunInProcess(RunDeepfakeInfer, infer, "deepfake.infer");
     const std::vector<uint8_t> translated = io::H5File::OpenRead(out).Read<uint8_t>("/frames/translated", {});
     const std::vector<uint8_t> truth = io::H5File::OpenRead(File("b.h5")).Read<uint8_t>("/frames/segmentation", {});
     EXPECT_EQ(translated.size(), truth.size());
@@ -262,14 +326,24 @@ TEST_F(DeepfakeStage, PairedExamplesTeachTheTranslation) {
     for (size_t k = 0; k < std::min(translated.size(), truth.size()); ++k) sum += std::abs(translated[k] - truth[k]);
     return sum / static_cast<double>(truth.size());
   };
-  const double unpaired = error(""), paired = error(" --paired " + File("b.h5") + " --paired-fraction 1");
+  auto with_paired = [&](DeepfakeTrainOptions* o) {
+    o->paired = {File("b.h5")};
+    o->paired_fraction = 1;
+  };
+  const double unpaired = error("unpaired", [](DeepfakeTrainOptions*) {}),
+               paired = error("paired", with_paired);
   EXPECT_LT(paired, 0.8 * unpaired) << "paired " << paired << ", unpaired " << unpaired;
   // The palette head chooses among the region colours: nearer still after the same steps.
-  const double head = error(" --paired " + File("b.h5") + " --paired-fraction 1 --palette-head --palette-weight 1");
+  const double head = error("head", [&](DeepfakeTrainOptions* o) {
+    with_paired(o);
+    o->palette_head = true;
+    o->loss.palette_weight = 1;
+  });
   EXPECT_LT(head, paired) << "palette head " << head << ", RGB head " << paired;
 
-  auto bad = RunFacecap(Train(File("paired_bad.h5"), 2) + " --paired " + File("b.h5") + "," +
-                        File("samples2.h5"), 0, kEnv);
+  DeepfakeTrainOptions bad_options = TrainOptions(File("paired_bad.h5"), 2);
+  bad_options.paired = {File("b.h5"), File("samples2.h5")};
+  auto bad = InProcessResult(RunDeepfakeTrain, bad_options, "deepfake.train");
   EXPECT_EQ(bad.code, kExitInput) << bad.output;
   EXPECT_NE(bad.output.find("samples2.h5"), std::string::npos) << bad.output;
 }
@@ -278,10 +352,12 @@ TEST_F(DeepfakeStage, PairedExamplesTeachTheTranslation) {
 // another network is refused by name.
 TEST_F(DeepfakeStage, AWarmStartBeginsFromTheInitModelsAveragedWeights) {
   const std::string from = File("warm_from.h5"), warm = File("warm.h5");
-  auto t = RunFacecap(Train(from, 3) + " --average-decay 0.5", 0, kEnv);
-  ASSERT_EQ(t.code, 0) << t.output;
-  auto r = RunFacecap(Train(warm, 0) + " --init " + from, 0, kEnv);
-  ASSERT_EQ(r.code, 0) << r.output;
+  DeepfakeTrainOptions from_options = TrainOptions(from, 3);
+  from_options.average_decay = 0.5;
+  RunInProcess(RunDeepfakeTrain, from_options, "deepfake.train");
+  DeepfakeTrainOptions warm_options = TrainOptions(warm, 0);
+  warm_options.init = from;
+  RunInProcess(RunDeepfakeTrain, warm_options, "deepfake.train");
   io::H5File f = io::H5File::OpenRead(from);
   nn::DeepfakeModel model(nn::ReadNetworkOptions(f), 0);
   const int64_t n = model.num_parameters();
@@ -293,7 +369,9 @@ TEST_F(DeepfakeStage, AWarmStartBeginsFromTheInitModelsAveragedWeights) {
   nn::ReadWeights(io::H5File::OpenRead(warm), &model);
   EXPECT_EQ(std::vector<float>(model.parameters(), model.parameters() + n), averaged);
 
-  auto other = RunFacecap(Train(File("warm_other.h5"), 1, 12) + " --init " + from, 0, kEnv);
+  DeepfakeTrainOptions other_options = TrainOptions(File("warm_other.h5"), 1, 12);
+  other_options.init = from;
+  auto other = InProcessResult(RunDeepfakeTrain, other_options, "deepfake.train");
   EXPECT_EQ(other.code, kExitInput) << other.output;
   EXPECT_NE(other.output.find(from), std::string::npos) << other.output;
 }

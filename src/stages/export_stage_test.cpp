@@ -11,6 +11,7 @@
 #include "io/mesh_io.h"
 #include "io/texture_file.h"
 #include "rig/arkit.h"
+#include "stages/export_stage.h"
 #include "stages/rig_stage.h"
 #include "stages/synth_clip_stage.h"
 #include "testing/testing.h"
@@ -52,8 +53,11 @@ std::string WriteTrack(const testing::TempDir& dir) {
 TEST(ExportLiveLink, HeaderHasTimecodeCountAnd61ValuesMatchedByName) {
   testing::TempDir dir;
   const std::string track = WriteTrack(dir), csv = dir.File("take.csv");
-  auto r = RunFacecap("export livelink --track " + track + " --out " + csv + " --fps 30");
-  ASSERT_EQ(r.code, 0) << r.output;
+  ExportLiveLinkOptions o;
+  o.track = track;
+  o.out = csv;
+  o.fps = 30.f;
+  RunInProcess(RunExportLiveLink, o, "export.livelink");
   std::ifstream in(csv);
   std::string header, line;
   std::getline(in, header);
@@ -94,8 +98,11 @@ TEST(ExportGltf, AnimationReimportsWithTheRigsMorphTargets) {
   RigDemoOptions demo_rig;
   demo_rig.out = rig;
   RunInProcess(RunRigDemo, demo_rig, "rig.demo");
-  auto r = RunFacecap("export gltf --track " + track + " --rig " + rig + " --out " + glb);
-  ASSERT_EQ(r.code, 0) << r.output;
+  ExportGltfOptions o;
+  o.track = track;
+  o.rig = rig;
+  o.out = glb;
+  RunInProcess(RunExportGltf, o, "export.gltf");
   const rig::Rig back = io::ImportRigFromGltf(glb);
   EXPECT_EQ(back.NumShapes(), 52);
   EXPECT_GE(back.ShapeIndex("jawOpen"), 0);
@@ -130,9 +137,14 @@ TEST(ExportOverlay, DrawsTheTrackedRigWhereTheFaceIs) {
     t.Commit();
   }
   const std::string mp4 = dir.File("overlay.mp4");
-  auto r = RunFacecap("export overlay --track " + track + " --rig " + clip + " --frames " + clip +
-                      " --opacity 1 --scale 1 --out " + mp4);
-  ASSERT_EQ(r.code, 0) << r.output;
+  ExportOverlayOptions overlay;
+  overlay.track = track;
+  overlay.rig = clip;
+  overlay.frames = clip;
+  overlay.opacity = 1.f;
+  overlay.scale = 1;
+  overlay.out = mp4;
+  RunInProcess(RunExportOverlay, overlay, "export.overlay");
   const std::string raw = dir.File("overlay.rgb");
   ASSERT_EQ(std::system(("ffmpeg -loglevel error -y -i " + mp4 +
                          " -f rawvideo -pix_fmt rgb24 " + raw).c_str()), 0);
@@ -164,9 +176,11 @@ TEST(ExportOverlay, DrawsTheTrackedRigWhereTheFaceIs) {
     io::WriteColorTexture(&t, io::kTextureAlbedoPath, green);
   }
   const std::string shaded = dir.File("shaded.mp4");
-  r = RunFacecap("export overlay --track " + track + " --rig " + textured + " --frames " + clip +
-                 " --texture --opacity 1 --scale 1 --out " + shaded);
-  ASSERT_EQ(r.code, 0) << r.output;
+  ExportOverlayOptions shaded_overlay = overlay;
+  shaded_overlay.rig = textured;
+  shaded_overlay.texture = true;
+  shaded_overlay.out = shaded;
+  RunInProcess(RunExportOverlay, shaded_overlay, "export.overlay");
   ASSERT_EQ(std::system(("ffmpeg -loglevel error -y -i " + shaded +
                          " -f rawvideo -pix_fmt rgb24 " + raw).c_str()), 0);
   std::ifstream shaded_in(raw, std::ios::binary);
@@ -178,10 +192,19 @@ TEST(ExportOverlay, DrawsTheTrackedRigWhereTheFaceIs) {
     green_pixels += drawn[p + 1] > drawn[p] + 30 && drawn[p + 1] > drawn[p + 2] + 30;
   }
   EXPECT_GT(green_pixels, 0.6 * face) << green_pixels << " of " << face;
-  r = RunFacecap("export overlay --track " + track + " --rig " + clip + " --frames " + clip + " --texture --out " +
-                 dir.File("none.mp4"));
-  EXPECT_EQ(r.code, kExitInput) << r.output;
-  EXPECT_NE(r.output.find(clip + ": no texture"), std::string::npos) << r.output;
+  ExportOverlayOptions untextured;
+  untextured.track = track;
+  untextured.rig = clip;
+  untextured.frames = clip;
+  untextured.texture = true;
+  untextured.out = dir.File("none.mp4");
+  try {
+    RunInProcess(RunExportOverlay, untextured, "export.overlay");
+    ADD_FAILURE() << "--texture was accepted with a rig without a texture";
+  } catch (const FileIOError& e) {
+    EXPECT_EQ(e.code(), kExitInput);
+    EXPECT_NE(std::string(e.what()).find(clip + ": no texture"), std::string::npos) << e.what();
+  }
 }
 
 TEST(ExportOverlay, BadOptionsAreUsageErrors) {

@@ -23,8 +23,12 @@
 #include "rig/compare.h"
 #include "rig/demo_head.h"
 #include "rig/evaluate.h"
+#include "stages/eval_stage.h"
+#include "stages/export_stage.h"
 #include "stages/ingested_frames.h"
 #include "stages/person_file.h"
+#include "stages/person_stage.h"
+#include "stages/track_stage.h"
 #include "testing/testing.h"
 
 namespace facecap::stages {
@@ -153,14 +157,25 @@ TEST_F(FootageStage, ExportedLandmarksMatchTheRendersThroughTheCropTransform) {
                                    {5, -15, 20, 2, true}};
   const std::vector<face::Landmarks> truth =
       WriteFootage(*generic_, shots, File("frames_a.h5"), File("translated_a.h5"));
-  auto r = RunFacecap("track --rig " + File("rig.h5") + " --frames " + File("frames_a.h5") +
-                      " --targets " + File("translated_a.h5") + " --targets-dataset "
-                      "/frames/translated --objective landmarks --init landmarks --levels 1 "
-                      "--epochs 4 --weight-prior 0 --batch 1 --out " + File("track_a.h5"));
-  ASSERT_EQ(r.code, 0) << r.output;
-  r = RunFacecap("export landmarks --track " + File("track_a.h5") + " --rig " + File("rig.h5") +
-                 " --frames " + File("frames_a.h5") + " --out " + File("landmarks.csv"));
-  ASSERT_EQ(r.code, 0) << r.output;
+  TrackOptions track;
+  track.rig = File("rig.h5");
+  track.frames = File("frames_a.h5");
+  track.targets = File("translated_a.h5");
+  track.targets_dataset = "/frames/translated";
+  track.tracker.objective = "landmarks";
+  track.init = "landmarks";
+  track.tracker.levels = 1;
+  track.tracker.epochs = 4;
+  track.tracker.weight_prior = 0.f;
+  track.batch = 1;
+  track.out = File("track_a.h5");
+  RunInProcess(RunTrack, track, "track");
+  ExportLandmarksOptions export_landmarks;
+  export_landmarks.track = File("track_a.h5");
+  export_landmarks.rig = File("rig.h5");
+  export_landmarks.frames = File("frames_a.h5");
+  export_landmarks.out = File("landmarks.csv");
+  RunInProcess(RunExportLandmarks, export_landmarks, "export.landmarks");
   std::ifstream csv(File("landmarks.csv"));
   std::string line;
   ASSERT_TRUE(std::getline(csv, line));
@@ -197,13 +212,19 @@ TEST_F(FootageStage, ExportedLandmarksMatchTheRendersThroughTheCropTransform) {
   // eval landmarks: the tracked rig against the frames' landmarks, and against the same
   // landmarks moved by 4 pixels; frames without a face are left out.
   auto nme = [&](const std::string& frames) {
-    auto e = RunFacecap("eval landmarks --frames " + frames + " --track " + File("track_a.h5") +
-                        " --rig " + File("rig.h5") + " --holdout-every 2");
-    EXPECT_EQ(e.code, 0) << e.output;
-    EXPECT_NE(e.output.find("\"frames\": 4"), std::string::npos) << e.output;
-    EXPECT_NE(e.output.find("\"held_out_frames\": 1"), std::string::npos) << e.output;
-    const size_t at = e.output.find("\"landmark_nme\": ");
-    return at == std::string::npos ? -1.0 : std::stod(e.output.substr(at + 16));
+    EvalLandmarksOptions eval;
+    eval.frames = frames;
+    eval.track = File("track_a.h5");
+    eval.rig = File("rig.h5");
+    eval.holdout_every = 2;
+    eval.json = true;
+    eval.out = File("eval_landmarks.json");
+    RunInProcess(RunEvalLandmarks, eval, "eval.landmarks");
+    const std::string e = testing::ReadText(eval.out);
+    EXPECT_NE(e.find("\"frames\": 4"), std::string::npos) << e;
+    EXPECT_NE(e.find("\"held_out_frames\": 1"), std::string::npos) << e;
+    const size_t at = e.find("\"landmark_nme\": ");
+    return at == std::string::npos ? -1.0 : std::stod(e.substr(at + 16));
   };
   const double exact = nme(File("frames_a.h5"));
   {
@@ -244,6 +265,20 @@ class PersonFit : public FootageStage {
            " --count 10 --landmark-rounds 4 --refine-rounds 2 --identity-prior 0.1"
            " --refine-from landmarks --out " + out;
   }
+  // The options Args(out) gives on the command line.
+  static PersonFitStageOptions Options(const std::string& out) {
+    PersonFitStageOptions o;
+    o.rig = File("rig.h5");
+    o.frames = File("frames.h5");
+    o.translations = File("translated.h5");
+    o.count = 10;
+    o.fit.landmark_rounds = 4;
+    o.fit.refine_rounds = 2;
+    o.fit.identity_prior = 0.1;
+    o.refine_from = "landmarks";
+    o.out = out;
+    return o;
+  }
   static std::vector<double> Identity(const std::string& path) {
     return io::H5File::OpenRead(path).ReadVector<double>("/person/identity");
   }
@@ -265,10 +300,15 @@ TEST_F(PersonFit, RecoversAKnownIdentityFromItsOwnRenders) {
   ASSERT_GE(smile, 0);
   EXPECT_GT(fitted.shapes[smile].delta.vertex.size(), 10u);
   // eval person reports the same against the truth, beside the generic head.
-  r = RunFacecap("eval person --truth " + File("truth.h5") + " --person " + File("person.h5"));
-  ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_NE(r.output.find("\"template_vertex_rms_over_iod\""), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("\"landmarks_only_vertex_rms_over_iod\""), std::string::npos);
+  EvalPersonOptions eval;
+  eval.truth = File("truth.h5");
+  eval.person = File("person.h5");
+  eval.json = true;
+  eval.out = File("eval_person.json");
+  RunInProcess(RunEvalPerson, eval, "eval.person");
+  const std::string e = testing::ReadText(eval.out);
+  EXPECT_NE(e.find("\"template_vertex_rms_over_iod\""), std::string::npos) << e;
+  EXPECT_NE(e.find("\"landmarks_only_vertex_rms_over_iod\""), std::string::npos);
 }
 
 // Person fit records each landmark's noise against the person's landmark vertices; track's
@@ -324,9 +364,8 @@ TEST_F(PersonFit, TrackWeighsTheLandmarkTermByTheRecordedNoise) {
 }
 
 TEST_F(PersonFit, OneAndThreeRanksGiveTheSameIdentity) {
-  auto r = RunFacecap(Args(File("person_1.h5")), 0);
-  ASSERT_EQ(r.code, 0) << r.output;
-  r = RunFacecap(Args(File("person_3.h5")), 3);
+  RunInProcess(RunPersonFit, Options(File("person_1.h5")), "person.fit");
+  auto r = RunFacecap(Args(File("person_3.h5")), 3);
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(Identity(File("person_1.h5")), Identity(File("person_3.h5")));
 }
@@ -371,13 +410,6 @@ std::vector<T> Dataset(const std::string& path, const std::string& name) {
   return io::H5File::OpenRead(path).Read<T>(name, {});
 }
 
-std::string Text(const std::string& path) {
-  std::ifstream f(path);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
 // The demo's pipeline stages read nothing of the clip's truth: run from the mp4 alone, with
 // the clip's HDF5 file absent, they give the same outputs.
 TEST(DemoPipeline, StagesAfterTheVideoReadNoTruth) {
@@ -406,7 +438,7 @@ TEST(DemoPipeline, StagesAfterTheVideoReadNoTruth) {
             Dataset<float>(other + "track.h5", "/track/pose"));
   EXPECT_EQ(Dataset<float>(demo + "track.h5", "/track/weights"),
             Dataset<float>(other + "track.h5", "/track/weights"));
-  EXPECT_EQ(Text(demo + "landmarks.csv"), Text(other + "landmarks.csv"));
+  EXPECT_EQ(testing::ReadText(demo + "landmarks.csv"), testing::ReadText(other + "landmarks.csv"));
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "io/image_io.h"
 #include "stages/ingest_stage.h"
 #include "testing/testing.h"
+#include "util/errors.h"
 
 namespace facecap::stages {
 namespace {
@@ -74,8 +75,13 @@ TEST_F(Ingest, KilledRunContinuesToTheUninterruptedResult) {
   face::WriteVideo(video, frames, 25.0);
   const std::string straight = dir_->File("straight.h5"), killed = dir_->File("killed.h5");
   const std::string args = " --video " + video + " --batch 3 --crop-size 64 --threads 1";
-  auto r = RunFacecap("ingest --out " + straight + args);
-  ASSERT_EQ(r.code, 0) << r.output;
+  IngestOptions o;
+  o.video = video;
+  o.batch = 3;
+  o.crop_size = 64;
+  o.threads = 1;
+  o.out = straight;
+  RunInProcess(RunIngest, o, "ingest");
 
   auto crash = RunFacecap("ingest --out " + killed + args, 0,
                           "FACECAP_FAULT_AFTER_FRAMES=6 FACECAP_FAULT_SIGNAL=KILL");
@@ -158,9 +164,13 @@ TEST_F(Ingest, ImageFolderIsAccountedImageByImage) {
 
   // Without the small-face search the small face is not seen at all.
   const std::string plain = dir_->File("stills_plain.h5");
-  auto p = RunFacecap("ingest --images " + folder + " --out " + plain +
-                      " --max-image-pixels 4000000 --crop-size 64 --detect-small-max-side 0");
-  ASSERT_EQ(p.code, 0) << p.output;
+  IngestOptions o;
+  o.images = folder;
+  o.out = plain;
+  o.max_image_pixels = 4000000;
+  o.crop_size = 64;
+  o.detect_small_max_side = 0;
+  RunInProcess(RunIngest, o, "ingest");
   EXPECT_EQ(Status(plain)[5], kFrameNoFace);
 }
 
@@ -172,12 +182,18 @@ TEST_F(Ingest, FolderWithoutAFaceKeepsTheAccountingInThePartialAndExits3) {
   io::WriteImage(folder + "/a.png", Image8(200, 150, 3, 40));
   io::WriteImage(folder + "/b.png", Image8(200, 150, 3, 220));
   const std::string out = dir_->File("none.h5");
+  IngestOptions o;
+  o.images = folder;
+  o.out = out;
   for (int attempt = 0; attempt < 2; ++attempt) {
-    auto r = RunFacecap("ingest --images " + folder + " --out " + out);
-    EXPECT_EQ(r.code, 3) << r.output;
-    EXPECT_NE(r.output.find("nothing was written to " + out), std::string::npos) << r.output;
-    EXPECT_FALSE(std::filesystem::exists(out)) << r.output;
-    ASSERT_TRUE(std::filesystem::exists(io::H5File::PartialPath(out))) << r.output;
+    try {
+      RunInProcess(RunIngest, o, "ingest");
+      ADD_FAILURE() << "ingest of a folder without a face succeeded";
+    } catch (const FileIOError& e) {  // exit code 3
+      EXPECT_NE(std::string(e.what()).find("nothing was written to " + out), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(std::filesystem::exists(out));
+    ASSERT_TRUE(std::filesystem::exists(io::H5File::PartialPath(out)));
   }
   io::H5File partial = io::H5File::OpenRead(io::H5File::PartialPath(out));
   EXPECT_EQ(partial.ReadVector<int32_t>("/frames/status"),

@@ -15,7 +15,10 @@
 #include "io/audio.h"
 #include "io/hdf5.h"
 #include "lipsync/visemes.h"
+#include "stages/lipsync_stage.h"
 #include "stages/rig_stage.h"
+#include "stages/synth_clip_stage.h"
+#include "stages/track_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -36,15 +39,22 @@ class Lipsync : public ::testing::Test {
     demo_rig.num_identity_modes = 8;
     demo_rig.out = File("rig.h5");
     RunInProcess(RunRigDemo, demo_rig, "rig.demo");
-    testing::CommandResult r;
-    const std::string common = "synth clip --rig " + File("rig.h5") + " --frames " +
-                               std::to_string(kFrames) + " --size 64 --texture-size 128 "
-                               "--identity-seed 3 --video --speech 'Bob made a map of Paris.' ";
-    r = RunFacecap(common + "--speech-start-seconds 0.3 --out " + File("talk.h5"));
-    ASSERT_EQ(r.code, 0) << r.output;
-    r = RunFacecap(common + "--speech-start-seconds " + std::to_string(0.3 + kOffset) +
-                   " --lips-view --out " + File("lips.h5"));
-    ASSERT_EQ(r.code, 0) << r.output;
+    SynthClipOptions talk;
+    talk.rig = demo_rig.out;
+    talk.clip.frames = kFrames;
+    talk.clip.size = 64;
+    talk.clip.texture.texture_size = 128;
+    talk.clip.identity_seed = 3;
+    talk.video = true;
+    talk.speech = "Bob made a map of Paris.";
+    talk.speech_start_seconds = 0.3f;
+    talk.out = File("talk.h5");
+    RunInProcess(RunSynthClip, talk, "synth.clip");
+    SynthClipOptions lips = talk;
+    lips.speech_start_seconds = static_cast<float>(0.3 + kOffset);
+    lips.lips_view = true;
+    lips.out = File("lips.h5");
+    RunInProcess(RunSynthClip, lips, "synth.clip");
     // Tracks made of the truth: the video's solve with its mouth at the neutral, and the lip
     // view's mouth.
     WriteTruthTrack(File("talk.h5"), File("video_track.h5"), true);
@@ -52,6 +62,14 @@ class Lipsync : public ::testing::Test {
   }
   static void TearDownTestSuite() { delete dir_; }
   static std::string File(const std::string& name) { return dir_->File(name); }
+  // lipsync blend of the video's solve and the mouth source's track into `out`.
+  static LipsyncBlendOptions Blend(const std::string& out) {
+    LipsyncBlendOptions o;
+    o.track = File("video_track.h5");
+    o.mouth = File("mouth_track.h5");
+    o.out = out;
+    return o;
+  }
 
   static void WriteTruthTrack(const std::string& clip, const std::string& out, bool neutral_mouth) {
     io::H5File c = io::H5File::OpenRead(clip);
@@ -117,10 +135,10 @@ TEST_F(Lipsync, TalkingClipKeepsItsSpeechAndSound) {
 }
 
 TEST_F(Lipsync, BlendAlignsByTheSoundAndHasExactLimits) {
-  auto r = RunFacecap("lipsync blend --track " + File("video_track.h5") + " --mouth " +
-                      File("mouth_track.h5") + " --video " + File("talk.mp4") + " --mouth-video " +
-                      File("lips.mp4") + " --out " + File("blended.h5"));
-  ASSERT_EQ(r.code, 0) << r.output;
+  LipsyncBlendOptions aligned = Blend(File("blended.h5"));
+  aligned.video = File("talk.mp4");
+  aligned.mouth_video = File("lips.mp4");
+  RunInProcess(RunLipsyncBlend, aligned, "lipsync.blend");
   io::H5File b = io::H5File::OpenRead(File("blended.h5"));
   const double offset = b.GetDoubleAttribute("/track", "lipsync_offset_seconds");
   EXPECT_NEAR(offset, kOffset, 0.02);
@@ -142,26 +160,30 @@ TEST_F(Lipsync, BlendAlignsByTheSoundAndHasExactLimits) {
   }
   EXPECT_LT(error, 0.1 * before) << error << " " << before;
   // No cross-fade: the video's solve exactly.
-  r = RunFacecap("lipsync blend --track " + File("video_track.h5") + " --mouth " +
-                 File("mouth_track.h5") + " --offset-seconds 0.137 --crossfade 0 --out " + File("none.h5"));
-  ASSERT_EQ(r.code, 0) << r.output;
+  LipsyncBlendOptions none = Blend(File("none.h5"));
+  none.offset_seconds = 0.137;
+  none.crossfade = {0.f};
+  RunInProcess(RunLipsyncBlend, none, "lipsync.blend");
   EXPECT_EQ(Weights(File("none.h5")), video);
   // Bad cross-fades are usage errors.
-  r = RunFacecap("lipsync blend --track " + File("video_track.h5") + " --mouth " +
-                 File("mouth_track.h5") + " --crossfade 0.5,0.5 --out " + File("bad.h5"));
+  auto r = RunFacecap("lipsync blend --track " + File("video_track.h5") + " --mouth " +
+                      File("mouth_track.h5") + " --crossfade 0.5,0.5 --out " + File("bad.h5"));
   EXPECT_EQ(r.code, kExitUsage) << r.output;
   EXPECT_FALSE(std::filesystem::exists(File("bad.h5")));
 }
 
 TEST_F(Lipsync, EvalScoresMouthUpperFaceAndClosures) {
-  auto r = RunFacecap("lipsync blend --track " + File("video_track.h5") + " --mouth " +
-                      File("mouth_track.h5") + " --offset-seconds 0.137 --out " + File("aligned.h5"));
-  ASSERT_EQ(r.code, 0) << r.output;
+  LipsyncBlendOptions aligned = Blend(File("aligned.h5"));
+  aligned.offset_seconds = 0.137;
+  RunInProcess(RunLipsyncBlend, aligned, "lipsync.blend");
   const std::string json = File("lipsync.json");
-  r = RunFacecap("eval lipsync --truth " + File("talk.h5") + " --tracks " + File("video_track.h5") +
-                 "," + File("aligned.h5") + " --names video,blend --out " + json + " --gaps " +
-                 File("gaps.csv"));
-  ASSERT_EQ(r.code, 0) << r.output;
+  EvalLipsyncOptions eval;
+  eval.truth = File("talk.h5");
+  eval.tracks = {File("video_track.h5"), File("aligned.h5")};
+  eval.names = {"video", "blend"};
+  eval.out = json;
+  eval.gaps = File("gaps.csv");
+  RunInProcess(RunEvalLipsync, eval, "eval.lipsync");
   std::ifstream in(json);
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   // Rows: the neutral mouth, the video's solve (its mouth is the neutral's), the blend.
@@ -236,8 +258,13 @@ TEST_F(Lipsync, TrackSolvesTheMouthOfAFrontalViewOnly) {
     }
   }
   f.Close();
-  r = RunFacecap(args);
-  ASSERT_EQ(r.code, 0) << r.output;
+  LipsyncTrackOptions rerun;
+  rerun.rig = File("lips.h5");
+  rerun.targets = File("lips.h5");
+  rerun.filter.sound = File("lips.wav");
+  rerun.count = 24;
+  rerun.out = out;
+  RunInProcess(RunLipsyncTrack, rerun, "lipsync.track");
   EXPECT_EQ(Weights(out), w) << "a rerun calibrated the calibrated weights again";
   const RowMatrixF truth = Weights(File("lips.h5"), "/frames/weights");
   const std::vector<int> mouth = MouthColumns(File("lips.h5"));
@@ -258,10 +285,17 @@ TEST_F(Lipsync, TrackSolvesTheMouthOfAFrontalViewOnly) {
   a.array() -= a.mean();
   b.array() -= b.mean();
   EXPECT_GT(a.dot(b) / (a.norm() * b.norm()), 0.7);
-  auto bad = RunFacecap("lipsync track --rig " + File("lips.h5") + " --targets " + File("lips.h5") +
-                        " --solve-controls jawOpen,grin --out " + File("bad_track.h5"));
-  EXPECT_NE(bad.code, 0);
-  EXPECT_NE(bad.output.find("grin"), std::string::npos) << bad.output;
+  LipsyncTrackOptions bad;
+  bad.rig = File("lips.h5");
+  bad.targets = File("lips.h5");
+  bad.solve_controls = {"jawOpen", "grin"};
+  bad.out = File("bad_track.h5");
+  try {
+    RunInProcess(RunLipsyncTrack, bad, "lipsync.track");
+    ADD_FAILURE() << "lipsync track solved a control the rig does not have";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("grin"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -14,8 +14,13 @@
 
 #include "io/hdf5.h"
 #include "rig/pose.h"
+#include "stages/eval_stage.h"
+#include "stages/ingest_stage.h"
 #include "stages/ingested_frames.h"
+#include "stages/regress_stage.h"
 #include "stages/rig_stage.h"
+#include "stages/synth_clip_stage.h"
+#include "stages/synth_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 #include "util/random.h"
@@ -23,6 +28,7 @@
 namespace facecap::stages {
 namespace {
 
+using testing::ReadText;
 using testing::RunFacecap;
 
 constexpr int kSamples = 800, kFrames = 12, kDim = 64;
@@ -34,14 +40,29 @@ class Regress : public ::testing::Test {
     RigDemoOptions demo_rig;
     demo_rig.out = File("rig.h5");
     RunInProcess(RunRigDemo, demo_rig, "rig.demo");
-    auto r = RunFacecap("synth samples --rig " + File("rig.h5") + " --count " + std::to_string(kSamples) +
-                        " --size 32 --framing crop --fov-deg 40 --fill 0.5 --out " + File("samples.h5"));
-    ASSERT_EQ(r.code, 0) << r.output;
-    r = RunFacecap("synth clip --rig " + File("rig.h5") + " --frames " + std::to_string(kFrames) +
-                   " --size 160 --fov-deg 40 --fill 0.5 --video --out " + File("clip.h5"));
-    ASSERT_EQ(r.code, 0) << r.output;
-    r = RunFacecap("ingest --video " + File("clip.mp4") + " --out " + File("frames.h5") + " --crop-size 64");
-    ASSERT_EQ(r.code, 0) << r.output;
+    SynthSamplesOptions sample_options;
+    sample_options.rig = File("rig.h5");
+    sample_options.sample.count = kSamples;
+    sample_options.sample.size = 32;
+    sample_options.framing = "crop";
+    sample_options.sample.fov_deg = 40.f;
+    sample_options.sample.fill = 0.5f;
+    sample_options.out = File("samples.h5");
+    RunInProcess(RunSynthSamples, sample_options, "synth.samples");
+    SynthClipOptions clip_options;
+    clip_options.rig = File("rig.h5");
+    clip_options.clip.frames = kFrames;
+    clip_options.clip.size = 160;
+    clip_options.clip.fov_deg = 40.f;
+    clip_options.clip.fill = 0.5f;
+    clip_options.video = true;
+    clip_options.out = File("clip.h5");
+    RunInProcess(RunSynthClip, clip_options, "synth.clip");
+    IngestOptions ingest;
+    ingest.video = File("clip.mp4");
+    ingest.out = File("frames.h5");
+    ingest.crop_size = 64;
+    RunInProcess(RunIngest, ingest, "ingest");
     // The map from (pose / pi + 0.5, weights) to codes.
     const io::H5File samples = io::H5File::OpenRead(File("samples.h5"));
     const int64_t S = static_cast<int64_t>(samples.ReadStrings("/samples/shape_names").size());
@@ -105,6 +126,36 @@ class Regress : public ::testing::Test {
     return "regress infer --model " + model + " --codes " + File("frame_codes.h5") + " --frames " +
            File("frames.h5") + " --rig " + File("clip.h5") + " --out " + out;
   }
+  // The options Train(out, steps) gives on the command line, the steps as --pose-steps,
+  // --landmark-steps and --finetune-steps.
+  static RegressTrainOptions TrainOptions(const std::string& out, int pose_steps, int landmark_steps = 0,
+                                          int finetune_steps = 0) {
+    RegressTrainOptions o;
+    o.samples = File("samples.h5");
+    o.sample_codes = File("sample_codes.h5");
+    o.frame_codes = File("frame_codes.h5");
+    o.frames = File("frames.h5");
+    o.rig = File("rig.h5");
+    o.net.hidden = 64;
+    o.batch = 32;
+    o.threads = 1;
+    o.checkpoint_every = 20;
+    o.pose_steps = pose_steps;
+    o.landmark_steps = landmark_steps;
+    o.finetune_steps = finetune_steps;
+    o.out = out;
+    return o;
+  }
+  // The options Infer(model, out) gives on the command line.
+  static RegressInferOptions InferOptions(const std::string& model, const std::string& out) {
+    RegressInferOptions o;
+    o.model = model;
+    o.codes = File("frame_codes.h5");
+    o.frames = File("frames.h5");
+    o.rig = File("clip.h5");
+    o.out = out;
+    return o;
+  }
   static testing::TempDir* dir_;
   static std::vector<float> map_;
 };
@@ -123,7 +174,10 @@ TEST_F(Regress, ThePhasesKeepOneWeightSetOnEveryRankAndResume) {
   }
   // Stopped in phase 3 (its anchors in the checkpoint), continued: the straight run's weights.
   const std::string straight = File("straight.h5"), stopped = File("stopped.h5");
-  ASSERT_EQ(RunFacecap(Train(straight, steps)).code, 0);
+  RegressTrainOptions straight_options = TrainOptions(straight, 30, 20, 30);
+  straight_options.net.landmark_weight = 0.01f;
+  straight_options.net.anchor_weight = 10.f;
+  RunInProcess(RunRegressTrain, straight_options, "regress.train");
   auto stop = RunFacecap(Train(stopped, steps), 0, "FACECAP_FAULT_AFTER_STEPS=60");
   EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
   EXPECT_FALSE(std::filesystem::exists(stopped));
@@ -138,25 +192,26 @@ TEST_F(Regress, ThePhasesKeepOneWeightSetOnEveryRankAndResume) {
 
 TEST_F(Regress, PhaseOneFitsNoiselessCodesAndInferTracksTheClip) {
   const std::string model = File("phase1.h5");
-  auto r = RunFacecap(Train(model, "--pose-steps 1500 --landmark-steps 0 --finetune-steps 0"));
-  ASSERT_EQ(r.code, 0) << r.output;
+  RunInProcess(RunRegressTrain, TrainOptions(model, 1500), "regress.train");
   const io::H5File m = io::H5File::OpenRead(model);
   EXPECT_LT(m.GetDoubleAttribute("/regressor", "fit_samples_angle_err_deg"), 1.5);
   EXPECT_LT(m.GetDoubleAttribute("/regressor", "fit_samples_weights_mae"), 0.03);
 
   // Inferred on 1 and 2 ranks: the same track, one row per frame, read by eval track.
-  for (int ranks : {1, 2}) {
-    r = RunFacecap(Infer(model, File("track" + std::to_string(ranks) + ".h5")), ranks == 1 ? 0 : ranks);
-    ASSERT_EQ(r.code, 0) << r.output;
-  }
+  RunInProcess(RunRegressInfer, InferOptions(model, File("track1.h5")), "regress.infer");
+  auto r = RunFacecap(Infer(model, File("track2.h5")), 2);
+  ASSERT_EQ(r.code, 0) << r.output;
   const io::H5File t1 = io::H5File::OpenRead(File("track1.h5")), t2 = io::H5File::OpenRead(File("track2.h5"));
   for (const char* d : {"/track/pose", "/track/translation", "/track/weights"}) {
     EXPECT_EQ(t1.Read<float>(d, t1.DatasetShape(d)), t2.Read<float>(d, t2.DatasetShape(d))) << d;
   }
   EXPECT_EQ(t1.DatasetShape("/track/pose"), (io::Shape{kFrames, 3}));
-  r = RunFacecap("eval track --truth " + File("clip.h5") + " --track " + File("track1.h5") + " --rig " +
-                 File("clip.h5") + " --out " + File("metrics.json"));
-  ASSERT_EQ(r.code, 0) << r.output;
+  EvalTrackOptions eval;
+  eval.truth = File("clip.h5");
+  eval.track = File("track1.h5");
+  eval.rig = File("clip.h5");
+  eval.out = File("metrics.json");
+  RunInProcess(RunEvalTrack, eval, "eval.track");
   // The codes determine the truth: the angles come out closer to it than half the frontal
   // head's error, and the head, placed on the detected landmarks, projects its landmarks near
   // the clip's.
@@ -166,7 +221,7 @@ TEST_F(Regress, PhaseOneFitsNoiselessCodesAndInferTracksTheClip) {
     const Eigen::Matrix3f R = rig::EulerToMatrix(Eigen::Vector3f(truth[k * 3], truth[k * 3 + 1], truth[k * 3 + 2]));
     frontal_deg += std::acos(std::clamp((R.trace() - 1.f) / 2.f, -1.f, 1.f)) * 180.0 / M_PI / kFrames;
   }
-  const std::string metrics = r.output;
+  const std::string metrics = ReadText(eval.out);
   auto value = [&](const std::string& key) {
     const size_t at = metrics.find("\"" + key + "\": ");
     EXPECT_NE(at, std::string::npos) << key << " in " << metrics;
@@ -180,9 +235,8 @@ TEST_F(Regress, TheTrackersSolutionsAreLearnedOnTheirFrames) {
   // A track of the frames (infer's layout) whose controls are all 0.5, unlike the clip's truth
   // that the codes encode.
   const std::string phase1 = File("short.h5"), track = File("half.h5");
-  auto r = RunFacecap(Train(phase1, "--pose-steps 20 --landmark-steps 0 --finetune-steps 0"));
-  ASSERT_EQ(r.code, 0) << r.output;
-  ASSERT_EQ(RunFacecap(Infer(phase1, track)).code, 0);
+  RunInProcess(RunRegressTrain, TrainOptions(phase1, 20), "regress.train");
+  RunInProcess(RunRegressInfer, InferOptions(phase1, track), "regress.infer");
   {
     io::H5File t = io::H5File::OpenReadWrite(track);
     const io::Shape shape = t.DatasetShape("/track/weights");
@@ -190,9 +244,10 @@ TEST_F(Regress, TheTrackersSolutionsAreLearnedOnTheirFrames) {
     t.Write<float>("/track/weights", shape, half.data());
   }
   const std::string model = File("tracked.h5"), out = File("tracked_track.h5");
-  r = RunFacecap(Train(model, "--pose-steps 1500 --landmark-steps 0 --finetune-steps 0 --track " + track));
-  ASSERT_EQ(r.code, 0) << r.output;
-  ASSERT_EQ(RunFacecap(Infer(model, out)).code, 0);
+  RegressTrainOptions tracked = TrainOptions(model, 1500);
+  tracked.track = track;
+  RunInProcess(RunRegressTrain, tracked, "regress.train");
+  RunInProcess(RunRegressInfer, InferOptions(model, out), "regress.infer");
   const auto truth = io::H5File::OpenRead(File("clip.h5")).Read<float>("/frames/weights", {});
   const auto predicted = io::H5File::OpenRead(out).Read<float>("/track/weights", {});
   ASSERT_EQ(truth.size(), predicted.size());

@@ -9,6 +9,7 @@
 #include "io/rig_io.h"
 #include "rig/evaluate.h"
 #include "rig/pose.h"
+#include "stages/render_stage.h"
 #include "stages/rig_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
@@ -50,6 +51,14 @@ class RenderMeshOut : public ::testing::Test {
   std::string Render(const std::string& args) {
     return "render --rig " + rig_path_ + " --size 64 --out " + dir_.File("face.png") + " " + args;
   }
+  // Render's options in-process: the rig at 64 pixels to face.png, as Render's command line.
+  RenderStageOptions RenderOptions() {
+    RenderStageOptions o;
+    o.rig = rig_path_;
+    o.size = 64;
+    o.out = dir_.File("face.png");
+    return o;
+  }
 
   testing::TempDir dir_;
   std::string rig_path_;
@@ -58,9 +67,12 @@ class RenderMeshOut : public ::testing::Test {
 
 TEST_F(RenderMeshOut, ObjHoldsTheRigAtTheRenderedPoseAndWeights) {
   const std::string obj = dir_.File("posed.obj");
-  const auto r = RunFacecap(Render("--yaw-deg 30 --pitch-deg=-10 "
-                                   "--weights jawOpen=1,eyeBlinkLeft=1 --mesh-out " + obj));
-  ASSERT_EQ(r.code, 0) << r.output;
+  RenderStageOptions o = RenderOptions();
+  o.yaw_deg = 30.f;
+  o.pitch_deg = -10.f;
+  o.weights = {"jawOpen=1", "eyeBlinkLeft=1"};
+  o.mesh_out = obj;
+  RunInProcess(RunRender, o, "render");
   EXPECT_TRUE(std::ifstream(dir_.File("face.png")).good()) << "the image is still written";
   const io::Mesh mesh = io::ReadMeshObj(obj);
   const rig::Vertices expected =
@@ -78,8 +90,11 @@ TEST_F(RenderMeshOut, GlbAndGltfReimportAsTheSameStaticMesh) {
   const rig::Vertices expected = Expected(rig_, 0.f, -30.f, {{"jawOpen", 0.5f}});
   for (const char* name : {"posed.glb", "posed.gltf"}) {
     const std::string path = dir_.File(name);
-    const auto r = RunFacecap(Render("--yaw-deg=-30 --weights jawOpen=0.5 --mesh-out " + path));
-    ASSERT_EQ(r.code, 0) << r.output;
+    RenderStageOptions o = RenderOptions();
+    o.yaw_deg = -30.f;
+    o.weights = {"jawOpen=0.5"};
+    o.mesh_out = path;
+    RunInProcess(RunRender, o, "render");
     const rig::Rig back = io::ImportRigFromGltf(path);
     EXPECT_EQ(back.NumShapes(), 0) << name;
     EXPECT_EQ(back.triangles.rows(), rig_.triangles.rows()) << name;
@@ -100,8 +115,10 @@ TEST_F(RenderMeshOut, OtherExtensionsAndSheetsAreUsageErrors) {
   EXPECT_NE(bad.output.find("mesh_out '" + dir_.File("posed.stl") + "' must end in .obj, .glb, .gltf"),
             std::string::npos)
       << bad.output;
-  auto sheet = RunFacecap(Render("--sheet --mesh-out " + dir_.File("posed.obj")));
-  EXPECT_EQ(sheet.code, kExitUsage) << sheet.output;
+  RenderStageOptions sheet = RenderOptions();
+  sheet.sheet = true;
+  sheet.mesh_out = dir_.File("posed.obj");
+  EXPECT_THROW(RunInProcess(RunRender, sheet, "render"), InvalidInputError);
   EXPECT_FALSE(std::ifstream(dir_.File("posed.obj")).good());
 }
 

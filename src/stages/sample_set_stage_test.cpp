@@ -10,8 +10,10 @@
 #include "io/hdf5.h"
 #include "io/rig_io.h"
 #include "stages/rig_stage.h"
+#include "stages/sample_set_stage.h"
 #include "stages/synth_stage.h"
 #include "testing/testing.h"
+#include "util/errors.h"
 #include "util/random.h"
 
 namespace facecap::stages {
@@ -78,15 +80,29 @@ class SampleSet : public ::testing::Test {
     if (!found.empty()) f.WriteVector("/frames/found", found);
     f.Commit();
   }
-  static std::string Contract(const std::string& out, const std::string& extra = "") {
-    return "synth contract --samples " + File("samples.h5") + " --sample-codes " +
-           File("sample_codes.h5") + " --frame-codes " + File("frame_codes.h5") + " --out " +
-           out + " " + extra;
+  static SynthContractOptions ContractOptions(const std::string& out) {
+    SynthContractOptions o;
+    o.samples = File("samples.h5");
+    o.sample_codes = File("sample_codes.h5");
+    o.frame_codes = File("frame_codes.h5");
+    o.out = out;
+    return o;
   }
   static std::string Expand(const std::string& out) {
     return "synth expand --rig " + File("rig.h5") + " --samples " + File("contracted.h5") +
            " --frame-codes " + File("frame_codes.h5") + " --track " + File("track.h5") +
            " --out " + out + " --batch 3";
+  }
+  // The options of Expand, for a run in this process.
+  static SynthExpandOptions ExpandOptions(const std::string& out) {
+    SynthExpandOptions o;
+    o.rig = File("rig.h5");
+    o.samples = File("contracted.h5");
+    o.frame_codes = File("frame_codes.h5");
+    o.track = File("track.h5");
+    o.out = out;
+    o.batch = 3;
+    return o;
   }
   static testing::TempDir* dir_;
   static std::vector<std::string> names_;
@@ -96,8 +112,7 @@ testing::TempDir* SampleSet::dir_ = nullptr;
 std::vector<std::string> SampleSet::names_;
 
 TEST_F(SampleSet, ContractionRemovesThePlantedOutliersAndKeepsTheRest) {
-  auto r = RunFacecap(Contract(File("contracted.h5")));
-  ASSERT_EQ(r.code, 0) << r.output;
+  RunInProcess(RunSynthContract, ContractOptions(File("contracted.h5")), "synth.contract");
   EXPECT_TRUE(std::filesystem::exists(File("contracted_contraction.png")));
   const io::H5File in = io::H5File::OpenRead(File("samples.h5"));
   const io::H5File out = io::H5File::OpenRead(File("contracted.h5"));
@@ -119,14 +134,18 @@ TEST_F(SampleSet, ContractionRemovesThePlantedOutliersAndKeepsTheRest) {
   // The nearest real frame is never the faceless frame 0.
   for (int64_t f : out.ReadVector<int64_t>("/contraction/nearest_frame")) EXPECT_NE(f, 0);
   // The same bound, from the first contraction, removes the same samples.
-  auto again = RunFacecap(Contract(File("again.h5"), "--sheet none --bound " + File("contracted.h5")));
-  ASSERT_EQ(again.code, 0) << again.output;
+  SynthContractOptions again = ContractOptions(File("again.h5"));
+  again.sheet = "none";
+  again.bound = File("contracted.h5");
+  RunInProcess(RunSynthContract, again, "synth.contract");
   EXPECT_EQ(io::H5File::OpenRead(File("again.h5")).ReadVector<int64_t>("/contraction/source_index"), source);
 }
 
 TEST_F(SampleSet, ExpansionIsTheSameOnOneTwoAndThreeRanksAndFollowsTheGaps) {
   if (!std::filesystem::exists(File("contracted.h5"))) {
-    ASSERT_EQ(RunFacecap(Contract(File("contracted.h5"), "--sheet none")).code, 0);
+    SynthContractOptions contract = ContractOptions(File("contracted.h5"));
+    contract.sheet = "none";
+    RunInProcess(RunSynthContract, contract, "synth.contract");
   }
   std::vector<std::string> outs;
   for (int ranks : {1, 2, 3}) {
@@ -168,19 +187,22 @@ TEST_F(SampleSet, ExpansionIsTheSameOnOneTwoAndThreeRanksAndFollowsTheGaps) {
     io::H5File f = io::H5File::CreateAtomic(File("rig_fewer.h5"));
     io::WriteRig(fewer, &f);
     f.Commit();
-    std::string args = Expand(File("other_rig.h5"));
-    args.replace(args.find(File("rig.h5")), File("rig.h5").size(), File("rig_fewer.h5"));
-    auto r = RunFacecap(args);
-    EXPECT_EQ(r.code, 2) << r.output;
-    EXPECT_NE(r.output.find("rig_fewer.h5"), std::string::npos) << r.output;
+    SynthExpandOptions other = ExpandOptions(File("other_rig.h5"));
+    other.rig = File("rig_fewer.h5");
+    try {
+      RunInProcess(RunSynthExpand, other, "synth.expand");
+      ADD_FAILURE() << "the rig of other shapes was accepted";
+    } catch (const InvalidInputError& e) {
+      EXPECT_EQ(e.code(), 2);
+      EXPECT_NE(std::string(e.what()).find("rig_fewer.h5"), std::string::npos) << e.what();
+    }
     EXPECT_FALSE(std::filesystem::exists(File("other_rig.h5")));
   }
   // Killed and rerun, it continues to the same set.
   const std::string killed = File("killed.h5");
   auto crash = RunFacecap(Expand(killed), 0, "FACECAP_FAULT_AFTER_FRAMES=6 FACECAP_FAULT_SIGNAL=KILL");
   EXPECT_NE(crash.code, 0);
-  auto rerun = RunFacecap(Expand(killed));
-  ASSERT_EQ(rerun.code, 0) << rerun.output;
+  RunInProcess(RunSynthExpand, ExpandOptions(killed), "synth.expand");
   EXPECT_EQ(io::H5File::OpenRead(killed).Read<uint8_t>("/samples/segmentation", {}),
             one.Read<uint8_t>("/samples/segmentation", {}));
 }

@@ -42,7 +42,9 @@ io::Config StoredOptions(const Options& options, const std::string& table) {
 
 // Runs a stage in this process on one rank without MPI (tests, tools): `run` is the stage's
 // Run, its options checked as the command line checks them (InvalidInputError naming the
-// table) and stored in the output under `table` as the command line would store them.
+// table) and stored in the output under `table` as the command line would store them. The
+// command line's checks of the paths themselves (an output naming an input, a folder, an
+// extension; app/registry.h) are not made here: the caller names its own files.
 template <class Options, class Summary>
 Summary RunInProcess(Summary (*run)(const Options&, const StageContext&, const io::Config&),
                      const Options& options, const std::string& table) {

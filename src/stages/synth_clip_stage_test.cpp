@@ -10,6 +10,7 @@
 #include "io/hdf5.h"
 #include "io/image_io.h"
 #include "stages/rig_stage.h"
+#include "stages/synth_clip_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -38,13 +39,22 @@ class SynthClip : public ::testing::Test {
     return "synth clip --rig " + Rig() + " --frames " + std::to_string(frames) +
            " --size 40 --texture-size 128 --batch 2 --identity-seed 3 --out " + out;
   }
+  // The options of Args, for a run in this process.
+  static SynthClipOptions ClipOptions(const std::string& out, int frames = 16) {
+    SynthClipOptions o;
+    o.rig = Rig();
+    o.clip.frames = frames;
+    o.clip.size = 40;
+    o.clip.texture.texture_size = 128;
+    o.batch = 2;
+    o.clip.identity_seed = 3;
+    o.out = out;
+    return o;
+  }
   // The clip of Args made by one uninterrupted run on one rank (made once, shared).
   static std::string Reference() {
     const std::string path = dir_->File("reference.h5");
-    if (!std::filesystem::exists(path)) {
-      auto r = RunFacecap(Args(path));
-      EXPECT_EQ(r.code, 0) << r.output;
-    }
+    if (!std::filesystem::exists(path)) RunInProcess(RunSynthClip, ClipOptions(path), "synth.clip");
     return path;
   }
   static void ExpectSameDatasets(const std::string& a, const std::string& b) {
@@ -115,18 +125,25 @@ TEST_F(SynthClip, KilledRunContinuesToTheUninterruptedResult) {
 
 TEST_F(SynthClip, ScriptedClipVideoAndSheet) {
   const std::string out = dir_->File("scripted.h5"), sheet = dir_->File("sheet.png");
-  auto r = RunFacecap(Args(out) + " --video --keyframes '0 yaw_deg=-30,0.3 yaw_deg=40 jawOpen=1'");
-  ASSERT_EQ(r.code, 0) << r.output;
+  SynthClipOptions o = ClipOptions(out);
+  o.video = true;
+  o.clip.keyframes = {"0 yaw_deg=-30", "0.3 yaw_deg=40 jawOpen=1"};
+  RunInProcess(RunSynthClip, o, "synth.clip");
   io::H5File f = io::H5File::OpenRead(out);
   const auto pose = f.ReadMatrix<float>("/frames/pose", 16, 3);
   EXPECT_NEAR(pose(0, 1), -30.f * M_PI / 180.f, 1e-5f);
   EXPECT_NEAR(pose(15, 1), 40.f * M_PI / 180.f, 1e-5f);
   const std::string video = dir_->File("scripted.mp4");
-  ASSERT_TRUE(std::filesystem::exists(video)) << r.output;
+  ASSERT_TRUE(std::filesystem::exists(video));
   EXPECT_GT(std::filesystem::file_size(video), 1000u);
 
-  auto s = RunFacecap("synth sheet --clip " + out + " --out " + sheet + " --frames 5 --pairs-per-row 3 --scale 2");
-  ASSERT_EQ(s.code, 0) << s.output;
+  SynthSheetOptions s;
+  s.clip = out;
+  s.out = sheet;
+  s.frames = 5;
+  s.pairs_per_row = 3;
+  s.scale = 2;
+  RunInProcess(RunSynthSheet, s, "synth.sheet");
   const Image8 image = io::ReadImage8(sheet);
   // 2 rows of 3 pairs of 80-pixel tiles with 2-pixel borders.
   EXPECT_EQ(image.width, 6 * 80 + 7 * 2);
@@ -139,9 +156,14 @@ TEST_F(SynthClip, BadOptionsAreUsageErrors) {
   EXPECT_EQ(negative.code, kExitUsage);
   EXPECT_NE(negative.output.find("frames must be positive"), std::string::npos) << negative.output;
   // (Range checks of every option are unit-tested in synth/clip_test.cpp.)
-  auto shape = RunFacecap(Args(out) + " --keyframes '0 grin=1'");
-  EXPECT_EQ(shape.code, kExitUsage);
-  EXPECT_NE(shape.output.find("'grin' is neither a shape"), std::string::npos) << shape.output;
+  SynthClipOptions shape = ClipOptions(out);
+  shape.clip.keyframes = {"0 grin=1"};
+  try {
+    RunInProcess(RunSynthClip, shape, "synth.clip");
+    ADD_FAILURE() << "keyframe shape 'grin' was accepted";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'grin' is neither a shape"), std::string::npos) << e.what();
+  }
   auto folder = RunFacecap(Args(out) + " --background-folder " + dir_->File("no_such_folder"));
   EXPECT_EQ(folder.code, kExitInput);
   EXPECT_FALSE(std::filesystem::exists(out));
@@ -160,8 +182,9 @@ TEST_F(SynthClip, BackgroundPhotosComeFromTheFolder) {
   }
   io::WriteImage(photos + "/wall.png", stripes);
   const std::string out = dir_->File("photo.h5");
-  auto r = RunFacecap(Args(out, 2) + " --background-folder " + photos);
-  ASSERT_EQ(r.code, 0) << r.output;
+  SynthClipOptions o = ClipOptions(out, 2);
+  o.background_folder = photos;
+  RunInProcess(RunSynthClip, o, "synth.clip");
   io::H5File f = io::H5File::OpenRead(out);
   const auto image = f.Read<uint8_t>("/frames/image", {});
   // The corner shows the photo's saturated red or blue, not a muted procedural colour.

@@ -8,6 +8,7 @@
 
 #include "io/hdf5.h"
 #include "stages/rig_stage.h"
+#include "stages/synth_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -31,6 +32,16 @@ class SynthSamples : public ::testing::Test {
   static std::string Rig() { return dir_->File("rig.h5"); }
   static std::string Args(const std::string& out) {
     return "synth samples --rig " + Rig() + " --count 48 --size 32 --batch 4 --out " + out;
+  }
+  // The options of Args, for a run in this process.
+  static SynthSamplesOptions SamplesOptions(const std::string& out) {
+    SynthSamplesOptions o;
+    o.rig = Rig();
+    o.sample.count = 48;
+    o.sample.size = 32;
+    o.batch = 4;
+    o.out = out;
+    return o;
   }
   static std::vector<uint8_t> Bytes(const std::string& path, const std::string& name) {
     io::H5File f = io::H5File::OpenRead(path);
@@ -72,9 +83,12 @@ TEST_F(SynthSamples, OneAndThreeRanksWriteIdenticalDatasets) {
 
 TEST_F(SynthSamples, SparsityAndPoseLimitsHoldOnEverySample) {
   const std::string out = dir_->File("limits.h5");
-  auto r = RunFacecap(Args(out) + " --sparsity-groups mouth,eye --sparsity-max-active 3,1"
-                      " --yaw-limit-deg 30 --pitch-limit-deg 5");
-  ASSERT_EQ(r.code, 0) << r.output;
+  SynthSamplesOptions o = SamplesOptions(out);
+  o.sample.sparsity_groups = {"mouth", "eye"};
+  o.sample.sparsity_max_active = {3, 1};
+  o.sample.yaw_limit_deg = 30.f;
+  o.sample.pitch_limit_deg = 5.f;
+  RunInProcess(RunSynthSamples, o, "synth.samples");
   io::H5File f = io::H5File::OpenRead(out);
   const auto names = f.ReadStrings("/samples/shape_names");
   const auto w = f.ReadMatrix<float>("/samples/weights", 48, names.size());
@@ -102,7 +116,7 @@ TEST_F(SynthSamples, SparsityAndPoseLimitsHoldOnEverySample) {
 
 TEST_F(SynthSamples, KilledRunContinuesToTheUninterruptedResult) {
   const std::string straight = dir_->File("straight.h5"), killed = dir_->File("killed.h5");
-  ASSERT_EQ(RunFacecap(Args(straight)).code, 0);
+  RunInProcess(RunSynthSamples, SamplesOptions(straight), "synth.samples");
   auto crash = RunFacecap(Args(killed), 0, "FACECAP_FAULT_AFTER_FRAMES=12 FACECAP_FAULT_SIGNAL=KILL");
   EXPECT_NE(crash.code, 0);
   EXPECT_FALSE(std::filesystem::exists(killed));
@@ -115,7 +129,7 @@ TEST_F(SynthSamples, KilledRunContinuesToTheUninterruptedResult) {
 
 TEST_F(SynthSamples, SigtermCheckpointsExitsWith75AndResumesOnThreeRanks) {
   const std::string straight = dir_->File("straight2.h5"), stopped = dir_->File("stopped.h5");
-  ASSERT_EQ(RunFacecap(Args(straight)).code, 0);
+  RunInProcess(RunSynthSamples, SamplesOptions(straight), "synth.samples");
   auto stop = RunFacecap(Args(stopped), 3, "FACECAP_FAULT_AFTER_FRAMES=12");
   EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
   auto rerun = RunFacecap(Args(stopped), 2);
@@ -130,13 +144,25 @@ TEST_F(SynthSamples, SigtermCheckpointsExitsWith75AndResumesOnThreeRanks) {
 TEST_F(SynthSamples, BadOptionsAreUsageErrors) {
   const std::string out = dir_->File("bad.h5");
   EXPECT_EQ(RunFacecap(Args(out) + " --count -5").code, kExitUsage);
-  auto nomatch = RunFacecap(Args(out) + " --sparsity-groups lips --sparsity-max-active 5");
-  EXPECT_EQ(nomatch.code, kExitUsage);
-  EXPECT_NE(nomatch.output.find("'lips' matches no shape"), std::string::npos) << nomatch.output;
-  EXPECT_EQ(RunFacecap(Args(out) + " --sparsity-groups mouth --sparsity-max-active 0").code,
-            kExitUsage);
-  EXPECT_EQ(RunFacecap(Args(out) + " --yaw-limit-deg 120").code, kExitUsage);
-  EXPECT_EQ(RunFacecap(Args(out) + " --sparsity-max-active 1,2").code, kExitUsage);
+  SynthSamplesOptions nomatch = SamplesOptions(out);
+  nomatch.sample.sparsity_groups = {"lips"};
+  nomatch.sample.sparsity_max_active = {5};
+  try {
+    RunInProcess(RunSynthSamples, nomatch, "synth.samples");
+    ADD_FAILURE() << "sparsity group 'lips' was accepted";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'lips' matches no shape"), std::string::npos) << e.what();
+  }
+  SynthSamplesOptions none_active = SamplesOptions(out);
+  none_active.sample.sparsity_groups = {"mouth"};
+  none_active.sample.sparsity_max_active = {0};
+  EXPECT_THROW(RunInProcess(RunSynthSamples, none_active, "synth.samples"), InvalidInputError);
+  SynthSamplesOptions yaw = SamplesOptions(out);
+  yaw.sample.yaw_limit_deg = 120.f;
+  EXPECT_THROW(RunInProcess(RunSynthSamples, yaw, "synth.samples"), InvalidInputError);
+  SynthSamplesOptions mismatched = SamplesOptions(out);
+  mismatched.sample.sparsity_max_active = {1, 2};
+  EXPECT_THROW(RunInProcess(RunSynthSamples, mismatched, "synth.samples"), InvalidInputError);
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 

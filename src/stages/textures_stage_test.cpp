@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -17,6 +18,10 @@
 #include "io/mesh_io.h"
 #include "io/rig_io.h"
 #include "render/shading.h"
+#include "stages/render_stage.h"
+#include "stages/scans_stage.h"
+#include "stages/textures_net_stage.h"
+#include "stages/textures_stage.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -29,13 +34,34 @@ class TexturedScans : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    auto r = RunFacecap(Synth(Scans()));
-    ASSERT_EQ(r.code, 0) << r.output;
+    RunInProcess(RunScansSynth, SynthOptions(Scans()), "scans.synth");
   }
   static void TearDownTestSuite() { delete dir_; }
   static std::string Scans() { return dir_->File("scans.h5"); }
   static std::string Synth(const std::string& out) {
     return "scans synth --people 4 --test-people 1 --texture-size 64 --threads 1 --out " + out;
+  }
+  // The options of Synth(out), for a run in this process.
+  static ScansSynthOptions SynthOptions(const std::string& out) {
+    ScansSynthOptions o;
+    o.people = 4;
+    o.test_people = 1;
+    o.texture_size = 64;
+    o.threads = 1;
+    o.out = out;
+    return o;
+  }
+  // eval textures of `scans` (with a texture network `model` when not empty) in this process:
+  // the JSON object it writes.
+  static std::string EvalTextures(const std::string& scans, const std::string& model,
+                                  const std::string& json) {
+    EvalTexturesOptions o;
+    o.scans = scans;
+    o.model = model;
+    o.json = true;
+    o.out = json;
+    RunInProcess(RunEvalTextures, o, "eval.textures");
+    return testing::ReadText(json);
   }
   static double Nested(const std::string& json, const std::string& object, const std::string& key) {
     return testing::NestedJsonNumber(json, object, key);
@@ -105,19 +131,25 @@ TEST_F(TexturedScans, SkinMapsAreTheSameOnThreeRanksAndMoveOnlyWhereTheSkinMoves
 }
 
 TEST_F(TexturedScans, DynamicTexturesBeatTheStaticNeutralOnAHeldOutPerson) {
-  auto r = RunFacecap("eval textures --scans " + Scans());
-  ASSERT_EQ(r.code, 0) << r.output;
+  const std::string json = EvalTextures(Scans(), "", dir_->File("eval_textures.json"));
   for (const char* layer : {"albedo_db", "displacement_db"}) {
-    const double stat = Nested(r.output, "static_neutral", layer), dyn = Nested(r.output, "dynamic", layer);
-    EXPECT_GT(dyn, stat + 3.0) << layer << "\n" << r.output;
+    const double stat = Nested(json, "static_neutral", layer), dyn = Nested(json, "dynamic", layer);
+    EXPECT_GT(dyn, stat + 3.0) << layer << "\n" << json;
   }
-  EXPECT_GT(Nested(r.output, "per_blendshape_maps", "albedo_db"), Nested(r.output, "static_neutral", "albedo_db"));
-  auto none = RunFacecap("scans synth --people 2 --test-people 1 --texture-size 0 --threads 1 --out " +
-                         dir_->File("plain.h5"));
-  ASSERT_EQ(none.code, 0) << none.output;
-  auto bad = RunFacecap("eval textures --scans " + dir_->File("plain.h5"));
-  EXPECT_NE(bad.code, 0);
-  EXPECT_NE(bad.output.find("no skin maps"), std::string::npos) << bad.output;
+  EXPECT_GT(Nested(json, "per_blendshape_maps", "albedo_db"), Nested(json, "static_neutral", "albedo_db"));
+  ScansSynthOptions none;
+  none.people = 2;
+  none.test_people = 1;
+  none.texture_size = 0;
+  none.threads = 1;
+  none.out = dir_->File("plain.h5");
+  RunInProcess(RunScansSynth, none, "scans.synth");
+  try {
+    EvalTextures(dir_->File("plain.h5"), "", dir_->File("plain.json"));
+    ADD_FAILURE() << "eval textures of a database without skin maps did not fail";
+  } catch (const FileIOError& e) {
+    EXPECT_NE(std::string(e.what()).find("no skin maps"), std::string::npos) << e.what();
+  }
 }
 
 // Person 0's neutral and smile written as OBJ meshes with their skin maps beside them (the
@@ -161,10 +193,17 @@ TEST_F(TexturedScans, ImportReadsTheSkinMapsBesideTheMeshes) {
   write_maps("smile", smile_maps, false);
   std::ofstream(folder + "/labels.csv") << "person,expression,file,split\np0,neutral,neutral.obj,train\n"
                                            "p0,smile,smile.obj,train\n";
-  const std::string cmd = "scans import --labels " + folder + "/labels.csv --template-rig " + dir_->File("template.h5") +
-                          " --facs smile=mouthSmileLeft+mouthSmileRight --texture-size 64 --displacement-scale-mm 10";
-  auto r = RunFacecap(cmd + " --out " + dir_->File("imported.h5"));
-  ASSERT_EQ(r.code, 0) << r.output;
+  auto import_options = [&](const std::string& out) {
+    ScansImportOptions o;
+    o.labels = folder + "/labels.csv";
+    o.template_rig = dir_->File("template.h5");
+    o.facs = {"smile=mouthSmileLeft+mouthSmileRight"};
+    o.texture_size = 64;
+    o.displacement_scale_mm = 10.f;
+    o.out = out;
+    return o;
+  };
+  RunInProcess(RunScansImport, import_options(dir_->File("imported.h5")), "scans.import");
   const io::H5File imported = io::H5File::OpenRead(dir_->File("imported.h5"));
   std::vector<float> got_neutral(maps.size()), got_offsets(maps.size());
   imported.ReadFrames<float>("/scans/textures/neutral", 0, 1, got_neutral.data());
@@ -188,9 +227,12 @@ TEST_F(TexturedScans, ImportReadsTheSkinMapsBesideTheMeshes) {
   EXPECT_LT(worst_exact, 1e-5);        // float EXRs, displacement scaled back to mm
   // A mesh without the maps that the first neutral has is named.
   std::filesystem::remove(folder + "/smile_specular.png");
-  auto missing = RunFacecap(cmd + " --out " + dir_->File("imported2.h5"));
-  EXPECT_NE(missing.code, 0);
-  EXPECT_NE(missing.output.find("smile.obj: no specular map"), std::string::npos) << missing.output;
+  try {
+    RunInProcess(RunScansImport, import_options(dir_->File("imported2.h5")), "scans.import");
+    ADD_FAILURE() << "scans import of a mesh without its specular map did not fail";
+  } catch (const FileIOError& e) {
+    EXPECT_NE(std::string(e.what()).find("smile.obj: no specular map"), std::string::npos) << e.what();
+  }
 }
 
 // A library of person 3 drives a take of three frames: at zero weights eq. 14 gives the
@@ -198,9 +240,12 @@ TEST_F(TexturedScans, ImportReadsTheSkinMapsBesideTheMeshes) {
 // sequences are the same on 2 ranks and when a run continues.
 TEST_F(TexturedScans, LibraryExportsATakesTexturesFrameByFrame) {
   const std::string library = dir_->File("library.h5");
-  auto r = RunFacecap("textures library --scans " + Scans() + " --person 3 --rig " + TemplateRigFile() + " --out " +
-                      library);
-  ASSERT_EQ(r.code, 0) << r.output;
+  TexturesLibraryOptions library_options;
+  library_options.scans = Scans();
+  library_options.person = "3";
+  library_options.rig = TemplateRigFile();
+  library_options.out = library;
+  RunInProcess(RunTexturesLibrary, library_options, "textures.library");
   const std::vector<std::string> names = {"jawOpen", "mouthSmileLeft"};
   Eigen::MatrixXf w(3, 2);
   w << 0, 0, 1, 0.5f, 1, 0.5f;
@@ -216,9 +261,12 @@ TEST_F(TexturedScans, LibraryExportsATakesTexturesFrameByFrame) {
     file.Commit();
   }
   const std::string one = dir_->File("tex1"), two = dir_->File("tex2");
-  r = RunFacecap("export textures --library " + library + " --track " + track + " --out " + one);
-  ASSERT_EQ(r.code, 0) << r.output;
-  r = RunFacecap("export textures --library " + library + " --track " + track + " --out " + two, 2);
+  ExportTexturesOptions export_options;
+  export_options.library = library;
+  export_options.track = track;
+  export_options.out = one;
+  RunInProcess(RunExportTextures, export_options, "export.textures");
+  auto r = RunFacecap("export textures --library " + library + " --track " + track + " --out " + two, 2);
   ASSERT_EQ(r.code, 0) << r.output;
   auto read = [](const std::string& folder, const std::string& layer, int frame) {
     char name[64];
@@ -251,6 +299,18 @@ TEST_F(TexturedScans, TextureNetworksKeepOneWeightSetOnEveryRankAndResume) {
     return "textures train --scans " + Scans() + " --epochs 1 --batch 8 --channels 4 --residual-blocks 1 "
            "--threads 1 --checkpoint-every 2 --out " + out;
   };
+  auto train_options = [&](const std::string& out) {
+    TexturesTrainOptions o;
+    o.scans = Scans();
+    o.epochs = 1;
+    o.batch = 8;
+    o.net.channels = 4;
+    o.net.residual_blocks = 1;
+    o.threads = 1;
+    o.checkpoint_every = 2;
+    o.out = out;
+    return o;
+  };
   for (int ranks : {2, 3}) {
     auto r = RunFacecap(train(dir_->File("texnet" + std::to_string(ranks) + ".h5")), ranks);
     ASSERT_EQ(r.code, 0) << r.output;
@@ -258,7 +318,7 @@ TEST_F(TexturedScans, TextureNetworksKeepOneWeightSetOnEveryRankAndResume) {
         << r.output;
   }
   const std::string straight = dir_->File("texnet_straight.h5"), stopped = dir_->File("texnet_stopped.h5");
-  ASSERT_EQ(RunFacecap(train(straight)).code, 0);
+  RunInProcess(RunTexturesTrain, train_options(straight), "textures.train");
   auto stop = RunFacecap(train(stopped), 0, "FACECAP_FAULT_AFTER_STEPS=3");
   EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
   EXPECT_FALSE(std::filesystem::exists(stopped));
@@ -275,28 +335,49 @@ TEST_F(TexturedScans, TextureNetworksKeepOneWeightSetOnEveryRankAndResume) {
 // maps into a library of predicted textures that render draws.
 TEST_F(TexturedScans, TextureNetworksLearnAndMakeALibraryFromANeutral) {
   const std::string model = dir_->File("texnet_learn.h5");
-  auto r = RunFacecap("textures train --scans " + Scans() + " --epochs 6 --batch 4 --channels 8 --residual-blocks 1 "
-                      "--learning-rate 2e-3 --threads 2 --out " + model);
-  ASSERT_EQ(r.code, 0) << r.output;
-  r = RunFacecap("eval textures --scans " + Scans() + " --model " + model);
-  ASSERT_EQ(r.code, 0) << r.output;
+  TexturesTrainOptions train;
+  train.scans = Scans();
+  train.epochs = 6;
+  train.batch = 4;
+  train.net.channels = 8;
+  train.net.residual_blocks = 1;
+  train.net.learning_rate = 2e-3f;
+  train.threads = 2;
+  train.out = model;
+  RunInProcess(RunTexturesTrain, train, "textures.train");
+  const std::string json = EvalTextures(Scans(), model, dir_->File("eval_textures_model.json"));
   for (const char* layer : {"albedo_db", "specular_db"}) {
-    EXPECT_GT(Nested(r.output, "network_expressions", layer), Nested(r.output, "static_neutral", layer) + 0.5)
-        << layer << "\n" << r.output;
+    EXPECT_GT(Nested(json, "network_expressions", layer), Nested(json, "static_neutral", layer) + 0.5)
+        << layer << "\n" << json;
   }
   const std::string library = dir_->File("predicted_library.h5");
-  r = RunFacecap("textures infer --model " + model + " --scans " + Scans() + " --person 3 --rig " + TemplateRigFile() +
-                 " --out " + library);
-  ASSERT_EQ(r.code, 0) << r.output;
+  TexturesInferOptions infer;
+  infer.model = model;
+  infer.scans = Scans();
+  infer.person = "3";
+  infer.rig = TemplateRigFile();
+  infer.out = library;
+  RunInProcess(RunTexturesInfer, infer, "textures.infer");
   const io::H5File f = io::H5File::OpenRead(library);
   EXPECT_EQ(f.DatasetShape("/predicted"), (io::Shape{24, 64, 64, 5}));
   EXPECT_EQ(f.DatasetShape("/dynamic_texture/compress"), (io::Shape{64, 64, 5}));
-  r = RunFacecap("render --rig " + library + " --weights jawOpen=1 --size 64 --out " + dir_->File("predicted.png"));
-  ASSERT_EQ(r.code, 0) << r.output;
-  auto wrong = RunFacecap("textures infer --model " + Scans() + " --scans " + Scans() + " --rig " + TemplateRigFile() +
-                          " --out " + dir_->File("no_library.h5"));
-  EXPECT_NE(wrong.code, 0);
-  EXPECT_NE(wrong.output.find("not a texture network model"), std::string::npos) << wrong.output;
+  RenderStageOptions render;
+  render.rig = library;
+  render.weights = {"jawOpen=1"};
+  render.size = 64;
+  render.out = dir_->File("predicted.png");
+  RunInProcess(RunRender, render, "render");
+  TexturesInferOptions wrong;
+  wrong.model = Scans();
+  wrong.scans = Scans();
+  wrong.rig = TemplateRigFile();
+  wrong.out = dir_->File("no_library.h5");
+  try {
+    RunInProcess(RunTexturesInfer, wrong, "textures.infer");
+    ADD_FAILURE() << "textures infer with a scan database as its model did not fail";
+  } catch (const FileIOError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a texture network model"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "io/hdf5.h"
+#include "stages/eval_stage.h"
 #include "stages/rig_stage.h"
 #include "stages/synth_stage.h"
 #include "stages/track_stage.h"
@@ -21,6 +22,7 @@
 namespace facecap::stages {
 namespace {
 
+using testing::ReadText;
 using testing::RunFacecap;
 
 const char* const kTrackDatasets[] = {"/track/pose", "/track/translation", "/track/scale",
@@ -48,6 +50,31 @@ class TrackStage : public ::testing::Test {
   static std::string Args(const std::string& out) {
     return "track --rig " + File("rig.h5") + " --targets " + File("samples.h5") +
            " --levels 1 --epochs 2 --batch 1 --out " + out;
+  }
+  // The options Args(out) gives on the command line.
+  static TrackOptions Options(const std::string& out) {
+    TrackOptions o;
+    o.rig = File("rig.h5");
+    o.targets = File("samples.h5");
+    o.tracker.levels = 1;
+    o.tracker.epochs = 2;
+    o.batch = 1;
+    o.out = out;
+    return o;
+  }
+  // eval track --json of `track` against the samples, its JSON written to File(json) and
+  // returned.
+  static std::string EvalJson(const std::string& track, const std::string& json,
+                              bool per_frame = false) {
+    EvalTrackOptions o;
+    o.truth = File("samples.h5");
+    o.track = track;
+    o.rig = File("rig.h5");
+    o.json = true;
+    o.per_frame = per_frame;
+    o.out = File(json);
+    RunInProcess(RunEvalTrack, o, "eval.track");
+    return ReadText(o.out);
   }
   static std::vector<uint8_t> Bytes(const std::string& path, const std::string& name) {
     io::H5File f = io::H5File::OpenRead(path);
@@ -90,37 +117,33 @@ TEST_F(TrackStage, OneAndThreeRanksWriteIdenticalTracksAndEvalReportsMetrics) {
   EXPECT_EQ(f.ReadStrings("/track/shape_names").size(), 52u);
   EXPECT_EQ(f.ReadStrings("/track/shape_names").front(), "eyeBlinkLeft");
 
-  auto e = RunFacecap("eval track --truth " + File("samples.h5") + " --track " + one +
-                      " --rig " + File("rig.h5") + " --json");
-  ASSERT_EQ(e.code, 0) << e.output;
+  const std::string e = EvalJson(one, "eval.json");
   for (const char* key : {"\"frames\": 5", "pose_err_deg_mean", "weights_mae", "landmark_nme",
                           "vertex_err_rel_mean", "sec_per_frame", "weights_mae_per_shape",
                           "weights_mae_neutral"}) {
-    EXPECT_NE(e.output.find(key), std::string::npos) << key << " missing in " << e.output;
+    EXPECT_NE(e.find(key), std::string::npos) << key << " missing in " << e;
   }
   // The neutral face's weight MAE is the mean |w| of the truth's weights (all 52 shapes).
   const auto truth_weights = io::H5File::OpenRead(File("samples.h5")).ReadMatrix<float>("/samples/weights");
   ASSERT_EQ(truth_weights.cols(), 52);
   const double expected = truth_weights.cwiseAbs().mean();
   const std::string key = "\"weights_mae_neutral\": ";
-  const size_t at = e.output.find(key);
-  ASSERT_NE(at, std::string::npos) << e.output;
-  EXPECT_NEAR(std::stod(e.output.substr(at + key.size())), expected, 1e-5 + 1e-4 * expected);
+  const size_t at = e.find(key);
+  ASSERT_NE(at, std::string::npos) << e;
+  EXPECT_NEAR(std::stod(e.substr(at + key.size())), expected, 1e-5 + 1e-4 * expected);
 
   // Each frame's errors (per_frame), whose means are the summary's.
-  auto p = RunFacecap("eval track --truth " + File("samples.h5") + " --track " + one + " --rig " +
-                      File("rig.h5") + " --json --per-frame");
-  ASSERT_EQ(p.code, 0) << p.output;
+  const std::string p = EvalJson(one, "eval_per_frame.json", /*per_frame=*/true);
   auto number = [&](const std::string& name) {
-    const size_t k = p.output.find("\"" + name + "\": ");
-    EXPECT_NE(k, std::string::npos) << name << " missing in " << p.output;
-    return k == std::string::npos ? -1.0 : std::stod(p.output.substr(k + name.size() + 4));
+    const size_t k = p.find("\"" + name + "\": ");
+    EXPECT_NE(k, std::string::npos) << name << " missing in " << p;
+    return k == std::string::npos ? -1.0 : std::stod(p.substr(k + name.size() + 4));
   };
   auto array = [&](const std::string& name) {
     std::vector<double> values;
-    const size_t k = p.output.find("\"" + name + "\": [");
+    const size_t k = p.find("\"" + name + "\": [");
     if (k == std::string::npos) return values;
-    std::istringstream in(p.output.substr(k + name.size() + 5, p.output.find(']', k) - k - name.size() - 5));
+    std::istringstream in(p.substr(k + name.size() + 5, p.find(']', k) - k - name.size() - 5));
     std::string item;
     while (std::getline(in, item, ',')) values.push_back(std::stod(item));
     return values;
@@ -129,7 +152,7 @@ TEST_F(TrackStage, OneAndThreeRanksWriteIdenticalTracksAndEvalReportsMetrics) {
   for (const auto& [name, mean] : {std::pair<std::string, std::string>{"pose_err_deg", "pose_err_deg_mean"},
                                    {"weights_mae", "weights_mae"}, {"landmark_nme", "landmark_nme"}}) {
     const std::vector<double> values = array(name);
-    ASSERT_EQ(values.size(), 5u) << name << " in " << p.output;
+    ASSERT_EQ(values.size(), 5u) << name << " in " << p;
     const double m = std::accumulate(values.begin(), values.end(), 0.0) / 5;
     EXPECT_NEAR(m, number(mean), 1e-5 * (1 + std::abs(m))) << name;
   }
@@ -161,7 +184,7 @@ TEST_F(TrackStage, InProcessRunWritesWhatTheCommandWrites) {
 
 TEST_F(TrackStage, KilledRunContinuesToTheUninterruptedResult) {
   const std::string straight = File("straight.h5"), killed = File("killed.h5");
-  ASSERT_EQ(RunFacecap(Args(straight)).code, 0);
+  RunInProcess(RunTrack, Options(straight), "track");
   auto crash = RunFacecap(Args(killed), 0, "FACECAP_FAULT_AFTER_FRAMES=3 FACECAP_FAULT_SIGNAL=KILL");
   EXPECT_NE(crash.code, 0);
   EXPECT_FALSE(std::filesystem::exists(killed));
@@ -178,7 +201,7 @@ TEST_F(TrackStage, KilledRunContinuesToTheUninterruptedResult) {
 // uninterrupted run.
 TEST_F(TrackStage, RankKilledMidRunOnThreeRanksContinuesOnTwo) {
   const std::string straight = File("straight3.h5"), killed = File("killed3.h5");
-  ASSERT_EQ(RunFacecap(Args(straight)).code, 0);
+  RunInProcess(RunTrack, Options(straight), "track");
   auto crash = RunFacecap(Args(killed), 3,
                           "FACECAP_FAULT_AFTER_FRAMES=3 FACECAP_FAULT_RANK=1 FACECAP_FAULT_SIGNAL=KILL");
   EXPECT_NE(crash.code, 0) << crash.output;
@@ -207,8 +230,15 @@ TEST_F(TrackStage, FramesWithoutAFaceAreHeldNotSolved) {
                              " --levels 1 --epochs 2 --init previous --segment-frames 5 --out ";
   auto r = RunFacecap("track --targets " + targets + common + out, 2);
   ASSERT_EQ(r.code, 0) << r.output;
-  auto p = RunFacecap("track --targets " + File("samples.h5") + common + plain);
-  ASSERT_EQ(p.code, 0) << p.output;
+  TrackOptions p;
+  p.targets = File("samples.h5");
+  p.rig = File("rig.h5");
+  p.tracker.levels = 1;
+  p.tracker.epochs = 2;
+  p.init = "previous";
+  p.segment_frames = 5;
+  p.out = plain;
+  RunInProcess(RunTrack, p, "track");
   io::H5File f = io::H5File::OpenRead(out), g = io::H5File::OpenRead(plain);
   const auto termination = f.ReadVector<int32_t>("/track/termination");
   const auto cost = f.ReadVector<double>("/track/cost");
@@ -226,17 +256,16 @@ TEST_F(TrackStage, FramesWithoutAFaceAreHeldNotSolved) {
   EXPECT_NE(termination[3], 3);
   EXPECT_TRUE(std::isfinite(cost[3]));
 
-  auto e = RunFacecap("eval track --truth " + File("samples.h5") + " --track " + out +
-                      " --rig " + File("rig.h5") + " --json");
-  ASSERT_EQ(e.code, 0) << e.output;
-  EXPECT_NE(e.output.find("\"frames\": 4, \"frames_without_target\": 1"), std::string::npos)
-      << e.output;
-  EXPECT_EQ(e.output.find("nan"), std::string::npos) << e.output;
+  const std::string e = EvalJson(out, "eval_held.json");
+  EXPECT_NE(e.find("\"frames\": 4, \"frames_without_target\": 1"), std::string::npos) << e;
+  EXPECT_EQ(e.find("nan"), std::string::npos) << e;
 }
 
 TEST_F(TrackStage, RejectsBadOptions) {
   EXPECT_EQ(RunFacecap(Args(File("bad.h5")) + " --init sideways").code, kExitUsage);
-  EXPECT_EQ(RunFacecap(Args(File("bad.h5")) + " --objective pixels").code, kExitUsage);
+  TrackOptions o = Options(File("bad.h5"));
+  o.tracker.objective = "pixels";
+  EXPECT_THROW(RunInProcess(RunTrack, o, "track"), InvalidInputError);
 }
 
 }  // namespace

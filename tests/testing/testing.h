@@ -33,6 +33,9 @@ CommandResult RunFacecap(const std::string& args, int ranks = 0, const std::stri
 // The launcher command for `ranks` ranks (oversubscribed, allowed as root).
 std::string MpiExec(int ranks);
 
+// The whole text of file `path` (empty when it cannot be read).
+std::string ReadText(const std::string& path);
+
 // The directory that holds the facecap binary and the test binaries' parent (build/).
 std::string BuildDir();
 // The source tree's root (for jobs/ and datasets/).
