@@ -286,8 +286,11 @@ class PersonFit : public FootageStage {
 };
 rig::Rig* PersonFit::person_ = nullptr;
 
+// On perfect translations (the person's own renders) every region is reliable: with none
+// ignored the fit recovers the identity within a tight tolerance; ignoring the eyes' and the
+// mouth's regions, as by default, it still lands close.
 TEST_F(PersonFit, RecoversAKnownIdentityFromItsOwnRenders) {
-  auto r = RunFacecap(Args(File("person.h5")), 2);
+  auto r = RunFacecap(Args(File("person.h5")) + " --set person.fit.refine_ignore_regions=[]", 2);
   ASSERT_EQ(r.code, 0) << r.output;
   const rig::Rig fitted = io::ReadRigFile(File("person.h5"));
   const double iod = rig::InterOcularDistance(*person_, person_->neutral);
@@ -295,6 +298,12 @@ TEST_F(PersonFit, RecoversAKnownIdentityFromItsOwnRenders) {
   const double generic = rig::SimilarityAlignedRms(generic_->neutral, person_->neutral) / iod;
   EXPECT_LT(error, 0.2 * generic) << "person fit " << error << ", generic head " << generic;
   EXPECT_LT(error, 0.006);
+  RunInProcess(RunPersonFit, Options(File("person_default.h5")), "person.fit");
+  const double default_error =
+      rig::SimilarityAlignedRms(io::ReadRigFile(File("person_default.h5")).neutral,
+                                person_->neutral) / iod;
+  EXPECT_LT(default_error, 0.25 * generic) << "person fit ignoring the eyes and the mouth "
+                                           << default_error << ", generic head " << generic;
   // The person's shapes are the generic ones moved onto the person: a smile is still a smile.
   const int smile = fitted.ShapeIndex("mouthSmileLeft");
   ASSERT_GE(smile, 0);
@@ -361,6 +370,23 @@ TEST_F(PersonFit, TrackWeighsTheLandmarkTermByTheRecordedNoise) {
   EXPECT_EQ(r.code, 3) << r.output;
   EXPECT_NE(r.output.find("person_noise2.h5"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("landmark_noise_px"), std::string::npos) << r.output;
+}
+
+// The refinement's ignored regions are the rig's: a name the rig lacks is refused, naming the
+// rig file and its regions, before any work.
+TEST_F(PersonFit, AnIgnoredRegionTheRigLacksIsRefused) {
+  PersonFitStageOptions o = Options(File("person_unknown_region.h5"));
+  o.refine_ignore_regions = {"sclera", "freckles"};
+  try {
+    RunInProcess(RunPersonFit, o, "person.fit");
+    ADD_FAILURE() << "no error";
+  } catch (const InvalidInputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("'freckles'"), std::string::npos) << what;
+    EXPECT_NE(what.find(File("rig.h5")), std::string::npos) << what;
+    EXPECT_NE(what.find("upper_lip"), std::string::npos) << what;
+  }
+  EXPECT_FALSE(std::filesystem::exists(o.out));
 }
 
 TEST_F(PersonFit, OneAndThreeRanksGiveTheSameIdentity) {

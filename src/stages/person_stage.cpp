@@ -96,7 +96,28 @@ struct PersonFitInputs {
   rig::Rig generic;       // the generic rig with identity modes
   IngestedFrames frames;  // ingest output: landmarks, crops, camera
   int size = 0;           // size of the crop camera: the translations' when given (pixels)
+  std::vector<float> refine_region_weights;  // per region of the rig: 0 where ignored
 };
+
+// The refinement's weight of each region of `rig` (read from `path`): 0 for the regions
+// `ignored` names, 1 for the others; empty when none is ignored.
+std::vector<float> RefineRegionWeights(const rig::Rig& rig, const std::string& path,
+                                       const std::vector<std::string>& ignored) {
+  if (ignored.empty()) return {};
+  std::vector<float> weights(rig.regions.size(), 1.f);
+  for (const std::string& name : ignored) {
+    size_t k = 0;
+    while (k < rig.regions.size() && rig.regions[k].name != name) ++k;
+    if (k == rig.regions.size()) {
+      std::string names;
+      for (const rig::Region& r : rig.regions) names += (names.empty() ? "" : ", ") + r.name;
+      throw InvalidInputError("person fit: refine_ignore_regions names '" + name + "', which " +
+                              path + " does not have (its regions: " + names + ")");
+    }
+    weights[k] = 0.f;
+  }
+  return weights;
+}
 
 PersonFitInputs ReadPersonFitInputs(const dist::Comm& comm, const PersonFitStageOptions& o) {
   PersonFitInputs in;
@@ -111,6 +132,7 @@ PersonFitInputs ReadPersonFitInputs(const dist::Comm& comm, const PersonFitStage
     if (in.generic.landmarks.size() != 68) {
       throw FileIOError(o.rig + ": the rig has no 68 landmarks");
     }
+    in.refine_region_weights = RefineRegionWeights(in.generic, o.rig, o.refine_ignore_regions);
     in.frames = IngestedFrames::Read(o.frames);
     if (!o.translations.empty()) {
       io::H5File t = io::H5File::OpenRead(o.translations);
@@ -581,7 +603,9 @@ StageSummary RunPersonFit(const PersonFitStageOptions& o, const StageContext& ct
 
   const PersonFitInputs in = ReadPersonFitInputs(comm, o);
   const bool refine = !o.translations.empty() && o.fit.refine_rounds > 0;
-  const track::PersonFitter fitter(in.generic, o.fit);
+  track::PersonFitOptions fit = o.fit;
+  fit.refine_tracker.region_weights = in.refine_region_weights;
+  const track::PersonFitter fitter(in.generic, fit);
   const PersonFitSetup setup{o,
                              comm,
                              in,

@@ -10,6 +10,7 @@
 #define FACECAP_STAGES_PERSON_STAGE_H_
 
 #include <string>
+#include <vector>
 
 #include "io/config.h"
 #include "io/frames_file.h"
@@ -36,6 +37,13 @@ struct PersonFitStageOptions {
   // (render::CalibrateLandmarks) at the frames' poses after the last round (the refinement's,
   // or the landmark phase's without translations); 0: the generic rig's.
   float calibrate_radius_cm = 1.5f;
+  // Regions of the rig whose pixels the refinement's identity step leaves out (a pixel counts
+  // unless its translation or the render shows one of them; the per-frame pose and expression
+  // solves see every region): the small regions that translations draw least reliably.
+  // Empty: every region.
+  std::vector<std::string> refine_ignore_regions = {
+      "left_upper_eyelid", "left_lower_eyelid", "right_upper_eyelid", "right_lower_eyelid",
+      "sclera", "iris", "upper_lip", "lower_lip", "mouth_interior"};
   track::PersonFitOptions fit;
 
   template <class V>
@@ -60,6 +68,11 @@ struct PersonFitStageOptions {
       "baseline, /person/landmarks_only_neutral) or landmarks (the landmark fit)");
     v("refine_rounds", fit.refine_rounds,
       "rounds of the refinement by inverse rendering of the translations (with translations)");
+    v("refine_ignore_regions", refine_ignore_regions,
+      "regions of the rig whose pixels the refinement's identity step leaves out (where the "
+      "translation or the render shows one of them; the per-frame solves see every region): "
+      "the eyes' and the mouth's small regions, which translations draw least reliably "
+      "(empty: every region)");
     v("identity_prior", fit.identity_prior,
       "weight of the prior alpha ~ N(0, 1) on the identity, in squared landmark pixels of a "
       "128-pixel crop");

@@ -64,7 +64,7 @@ struct PersonFitter::Impl {
   // give the identity's columns directly.
   rig::Rig augmented;
   std::vector<rig::Vertices> modes;  // the identity modes
-  std::unique_ptr<Tracker> landmark_tracker, refine_tracker;
+  std::unique_ptr<Tracker> landmark_tracker, refine_tracker, identity_tracker;
   int num_shapes = 0;                // the generic rig's expression shapes
 };
 
@@ -91,9 +91,13 @@ PersonFitter::PersonFitter(const rig::Rig& generic, const PersonFitOptions& opti
   for (int k = 0; k < static_cast<int>(m.modes.size()); ++k) identity_shapes.push_back(m.num_shapes + k);
   const std::vector<Eigen::Vector3f> colors = RigRegionColors(generic);
   m.landmark_tracker = std::make_unique<Tracker>(m.augmented, colors, options.landmark_tracker);
-  m.refine_tracker = std::make_unique<Tracker>(m.augmented, colors, options.refine_tracker);
+  TrackerOptions per_frame = options.refine_tracker;
+  per_frame.region_weights.clear();
+  m.refine_tracker = std::make_unique<Tracker>(m.augmented, colors, per_frame);
+  m.identity_tracker = std::make_unique<Tracker>(m.augmented, colors, options.refine_tracker);
   m.landmark_tracker->HoldShapesFixed(identity_shapes);
   m.refine_tracker->HoldShapesFixed(identity_shapes);
+  m.identity_tracker->HoldShapesFixed(identity_shapes);
 }
 
 PersonFitter::~PersonFitter() = default;
@@ -145,7 +149,8 @@ PersonFrameContribution PersonFitter::SolveFrame(const Eigen::VectorXd& identity
   Eigen::MatrixXd normal;
   Eigen::VectorXd gradient;
   PersonFrameContribution c;
-  c.cost = tracker.NormalEquations(frame->target, params, columns, &normal, &gradient);
+  const Tracker& equations = refine ? *m.identity_tracker : *m.landmark_tracker;
+  c.cost = equations.NormalEquations(frame->target, params, columns, &normal, &gradient);
   // The expression prior of the per-frame solve belongs to the local block.
   const render::Camera& cam = frame->target.camera;
   const double pixels = static_cast<double>(cam.width) * cam.height;

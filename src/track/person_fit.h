@@ -56,6 +56,8 @@ struct PersonFitOptions {
   double damping = 1e-3;
   // Per-frame solves of the landmark phase and of the refinement.
   TrackerOptions landmark_tracker;
+  // The refinement's: its region_weights weigh the pixels of the identity step's normal
+  // equations only; the per-frame pose and expression solves see every region.
   TrackerOptions refine_tracker;
 
   PersonFitOptions();

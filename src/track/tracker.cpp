@@ -51,6 +51,12 @@ bool TrackerOptions::Check(std::string* why) const {
       }
     }
   }
+  for (float w : region_weights) {
+    if (!(w >= 0.f && w <= 1e6f)) {
+      *why = "region_weights must be in [0, 1e6]";
+      return false;
+    }
+  }
   if (!(function_tolerance > 0.)) {
     *why = "function_tolerance must be positive";
     return false;
@@ -139,6 +145,33 @@ struct Tracker::Impl {
 
   Impl(const Tracker& t, const TrackTarget& tg) : tracker(t), target(tg) {}
 
+  // Each pixel's weight under TrackerOptions::region_weights (none without them).
+  std::vector<float> pixel_weights;
+  void WeighPixels(const std::vector<float>& rendered, const std::vector<float>& target_rgb) {
+    const std::vector<float>& omega = tracker.options_.region_weights;
+    pixel_weights.clear();
+    if (omega.empty()) return;
+    const std::vector<Eigen::Vector3f>& colors = tracker.renderer_.region_colors();
+    auto weight_of = [&](const float* rgb) {
+      const Eigen::Vector3f x(rgb[0], rgb[1], rgb[2]);
+      float nearest = (x - tracker.options_.soft.background_color).squaredNorm();
+      float w = 1.f;
+      for (size_t k = 0; k < colors.size(); ++k) {
+        const float d = (x - colors[k]).squaredNorm();
+        if (d < nearest) {
+          nearest = d;
+          w = omega[k];
+        }
+      }
+      return w;
+    };
+    const size_t n = target_rgb.size() / 3;
+    pixel_weights.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+      pixel_weights[i] = std::min(weight_of(&target_rgb[3 * i]), weight_of(&rendered[3 * i]));
+    }
+  }
+
   // |F_seg - T|^2; with normal/gradient, also J^T J and J^T r over `columns`.
   double Segmentation(const Eigen::VectorXf& full, const std::vector<int>* columns,
                       Eigen::MatrixXd* normal, Eigen::VectorXd* gradient) {
@@ -154,10 +187,11 @@ struct Tracker::Impl {
     const std::vector<float>& c =
         tracker.options_.hard_residual ? render.hard_color : render.color;
     const std::vector<float>& t = target.image.data;
+    WeighPixels(c, t);
     double sum = 0.;
     for (size_t i = 0; i < c.size(); ++i) {
       const double r = static_cast<double>(c[i]) - t[i];
-      sum += r * r;
+      sum += (pixel_weights.empty() ? 1. : pixel_weights[i / 3]) * r * r;
     }
     if (!normal) return sum;
     const int m = static_cast<int>(columns->size());
@@ -175,8 +209,9 @@ struct Tracker::Impl {
         const int p = ep.pixel;
         const Eigen::Vector3f r(c[3 * p] - t[3 * p], c[3 * p + 1] - t[3 * p + 1],
                                 c[3 * p + 2] - t[3 * p + 2]);
-        rows.row(i) *= knorm;
-        scaled_r[i] = knorm > 0.f ? ep.color_slope.dot(r) / knorm : 0.f;
+        const float root = pixel_weights.empty() ? 1.f : std::sqrt(pixel_weights[p]);
+        rows.row(i) *= knorm * root;
+        scaled_r[i] = knorm > 0.f ? root * ep.color_slope.dot(r) / knorm : 0.f;
       }
       // Coefficient-based products: single-threaded (no OpenMP inside Eigen's GEMM), so the
       // result does not depend on the thread count.
@@ -429,6 +464,12 @@ Tracker::Tracker(const rig::Rig& rig, std::vector<Eigen::Vector3f> region_colors
       renderer_(rig, std::move(region_colors), options.soft) {
   std::string why;
   if (!options_.Check(&why)) throw InvalidInputError("track: " + why);
+  if (!options_.region_weights.empty() &&
+      options_.region_weights.size() != renderer_.region_colors().size()) {
+    throw InvalidInputError("track: " + std::to_string(options_.region_weights.size()) +
+                            " region weights for a rig of " +
+                            std::to_string(renderer_.region_colors().size()) + " regions");
+  }
   jaw_shapes_ = evaluator_.jaw_shapes();
   for (int s = 0; s < rig.NumShapes(); ++s) {
     if (!std::binary_search(jaw_shapes_.begin(), jaw_shapes_.end(), s)) other_shapes_.push_back(s);

@@ -75,6 +75,12 @@ struct TrackerOptions {
   // |proj(X_l) - l|^2 (empty: 1 each). Set by the caller (track: the inverse squared noise of
   // each point that person fit measured), not an option of job files.
   std::vector<float> landmark_point_weights;
+  // omega_r: one weight per rig region (empty: 1 each). A pixel's squared residual counts
+  // min(omega of the region its target shows, omega of the region the render shows), each
+  // read as the nearest region colour (the background's: 1), so that weight 0 leaves a region's
+  // pixels out on both sides. Set by the caller (person fit: the regions the identity step of
+  // its refinement ignores), not an option of job files.
+  std::vector<float> region_weights;
   // Residual colours: false compares the soft render F_seg with the target (consistent cost
   // and derivative); true compares the hard render (exactly zero at the truth for a clean,
   // aliased target) and uses the soft render's derivative as its Gauss-Newton Jacobian.

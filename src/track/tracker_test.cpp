@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -16,6 +18,7 @@
 #include "render/rasterizer.h"
 #include "rig/demo_head.h"
 #include "rig/evaluate.h"
+#include "util/errors.h"
 
 namespace facecap::track {
 namespace {
@@ -191,6 +194,60 @@ TEST_F(TrackerTest, LandmarkPointWeightsScaleEachPoint) {
   EXPECT_FALSE(bad.Check(&why));
   bad.landmark_point_weights.assign(68, -1.f);
   EXPECT_FALSE(bad.Check(&why));
+}
+
+// A region of weight 0 leaves its pixels out on both sides: a target whose eyes were painted
+// over with skin costs at the truth what the clean target costs (the colours' rounding), where
+// without the weights it costs the painted pixels; weight 0.5 halves what they cost.
+TEST_F(TrackerTest, RegionWeightsLeaveARegionOut) {
+  const rig::RigidPose truth_pose = render::FramedPose(*rig_, distance_, 0.05f, -0.15f);
+  const Eigen::VectorXf truth = Weights({{"jawOpen", 0.3f}});
+  TrackTarget target = Target(truth_pose, truth);
+  auto region = [&](const std::string& name) {
+    for (size_t k = 0; k < rig_->regions.size(); ++k) {
+      if (rig_->regions[k].name == name) return static_cast<int>(k);
+    }
+    ADD_FAILURE() << "no region " << name;
+    return 0;
+  };
+  const std::vector<int> eyes = {region("sclera"), region("iris")};
+  const Eigen::Vector3f skin = rig_->regions[region("skin")].color;
+  int painted = 0;
+  for (int y = 0; y < target.image.height; ++y) {
+    for (int x = 0; x < target.image.width; ++x) {
+      const Eigen::Vector3f c(target.image.at(x, y, 0), target.image.at(x, y, 1),
+                              target.image.at(x, y, 2));
+      for (int k : eyes) {
+        if ((c - rig_->regions[k].color).norm() > 0.01f) continue;
+        for (int ch = 0; ch < 3; ++ch) target.image.at(x, y, ch) = skin[ch];
+        ++painted;
+      }
+    }
+  }
+  ASSERT_GT(painted, 10);
+  auto tracker_with = [&](float eye_weight) {
+    TrackerOptions options;
+    options.region_weights.assign(rig_->regions.size(), 1.f);
+    for (int k : eyes) options.region_weights[k] = eye_weight;
+    return Tracker(*rig_, RigRegionColors(*rig_), options);
+  };
+  const Tracker plain(*rig_, RigRegionColors(*rig_), TrackerOptions());
+  // The clean target costs only the colours' 8-bit rounding.
+  const double clean = plain.SegmentationCost(Target(truth_pose, truth), truth_pose, truth);
+  const double cost = plain.SegmentationCost(target, truth_pose, truth);
+  EXPECT_GT(cost, 1.0);
+  EXPECT_LT(clean, 1e-3 * cost);
+  EXPECT_NEAR(tracker_with(1.f).SegmentationCost(target, truth_pose, truth), cost, 1e-9 * cost);
+  EXPECT_NEAR(tracker_with(0.5f).SegmentationCost(target, truth_pose, truth), 0.5 * cost, clean);
+  const Tracker ignoring = tracker_with(0.f);
+  EXPECT_LE(ignoring.SegmentationCost(target, truth_pose, truth), clean);
+  TrackerOptions negative;
+  negative.region_weights.assign(rig_->regions.size(), -1.f);
+  std::string why;
+  EXPECT_FALSE(negative.Check(&why));
+  TrackerOptions short_list;
+  short_list.region_weights.assign(rig_->regions.size() - 1, 1.f);
+  EXPECT_THROW(Tracker(*rig_, RigRegionColors(*rig_), short_list), InvalidInputError);
 }
 
 }  // namespace
