@@ -14,6 +14,7 @@
 #include "render/landmarks.h"
 #include "render/rasterizer.h"
 #include "rig/evaluate.h"
+#include "rig/identity_shapes.h"
 #include "stages/crop_framing.h"
 #include "stages/frame_loop.h"
 #include "stages/ingested_frames.h"
@@ -63,7 +64,10 @@ class SynthSamplesRun {
     S_ = rig_.NumShapes();
     camera_ = synth::SampleCamera(so_);
     distance_ = render::FramingDistance(rig_, camera_, so_.fill);
-    evaluator_ = std::make_unique<const rig::RigEvaluator>(rig_);
+    // With identity_sigma > 0 the evaluator's rig carries the identity modes as extra shapes.
+    identity_modes_ = so_.identity_sigma > 0.f ? static_cast<int>(rig_.identity_modes.size()) : 0;
+    if (identity_modes_ > 0) eval_rig_ = rig::WithIdentityShapes(rig_);
+    evaluator_ = std::make_unique<const rig::RigEvaluator>(identity_modes_ > 0 ? eval_rig_ : rig_);
     crop_template_ = face::CropTemplate({so_.size, o_.crop_padding, o_.crop_raise});
     StageSummary summary{source_.out, "samples", source_.count, 0};
     if (OpenOutput()) return summary;
@@ -101,6 +105,10 @@ class SynthSamplesRun {
         throw FileIOError(o_.rig + ": the rig has " + std::to_string(rig_.landmarks.size()) +
                           " landmarks, " + source_.stage + " needs the 68 iBUG landmarks");
       }
+      if (so_.identity_sigma > 0.f && rig_.identity_modes.empty()) {
+        throw FileIOError(o_.rig + ": identity_sigma is " + std::to_string(so_.identity_sigma) +
+                          " but the rig has no identity modes (/rig/identity_modes)");
+      }
       try {
         sparsity_ = synth::ResolveSparsity(rig_, so_);
       } catch (const InvalidInputError& e) {
@@ -137,7 +145,8 @@ class SynthSamplesRun {
       return ReadSampleRow(*source_.copy_from, index);
     }
     return RenderSample(source_.params ? source_.params(index)
-                                       : synth::DrawSample(sparsity_, so_, S_, index),
+                                       : synth::DrawSample(sparsity_, so_, S_, index,
+                                                           identity_modes_),
                         thread);
   }
 
@@ -145,12 +154,16 @@ class SynthSamplesRun {
   std::vector<uint8_t> RenderSample(const synth::SampleParams& p, int thread) {
     SampleRenderer& r = renderers_[thread];
     rig::RigidPose pose = render::FramedPose(rig_, distance_, p.pitch, p.yaw);
+    // The evaluator's weights: the controls, then the identity coefficients (0: the rig's head).
+    Eigen::VectorXf weights = Eigen::VectorXf::Zero(S_ + identity_modes_);
+    weights.head(S_) = p.weights;
+    if (p.identity.size() == identity_modes_) weights.tail(identity_modes_) = p.identity;
     render::Camera view_camera = camera_;
     if (crop_) {
       view_camera = IngestCropCamera(rig_, *evaluator_, camera_, crop_template_, so_.size,
-                                     p.weights, &pose, &r.posed);
+                                     weights, &pose, &r.posed);
     }
-    evaluator_->EvaluatePosed(pose, p.weights, &r.posed);
+    evaluator_->EvaluatePosed(pose, weights, &r.posed);
     render::Rasterize(r.posed, rig_.triangles, view_camera, &r.gbuffer);
     render::RenderSegmentation(r.gbuffer, rig_.triangle_region, rig_.regions,
                                Eigen::Vector3f::Zero(), &r.segmentation);
@@ -180,6 +193,8 @@ class SynthSamplesRun {
   rig::Rig rig_;
   synth::Sparsity sparsity_;
   int S_ = 0;
+  int identity_modes_ = 0;  // identity coefficients per sample (0: the rig's own head)
+  rig::Rig eval_rig_;       // the rig with its identity modes as shapes, when identity_modes_ > 0
   render::Camera camera_;
   float distance_ = 0.f;
   std::unique_ptr<const rig::RigEvaluator> evaluator_;

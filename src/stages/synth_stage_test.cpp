@@ -1,5 +1,6 @@
 // facecap synth samples end to end: rank-count independence, limits on every sample, and
 // restarts after a kill or a SIGTERM that reproduce the uninterrupted dataset.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -9,6 +10,7 @@
 #include "io/hdf5.h"
 #include "stages/rig_stage.h"
 #include "stages/synth_stage.h"
+#include "synth/samples.h"
 #include "testing/testing.h"
 #include "util/errors.h"
 
@@ -114,6 +116,71 @@ TEST_F(SynthSamples, SparsityAndPoseLimitsHoldOnEverySample) {
   EXPECT_GT(active_total, 48);  // the limits are reached, not just respected by empty samples
 }
 
+TEST_F(SynthSamples, IdentitySigmaVariesTheHeadAndNothingElse) {
+  const std::string same = dir_->File("same_head.h5"), varied = dir_->File("varied_head.h5");
+  RunInProcess(RunSynthSamples, SamplesOptions(same), "synth.samples");
+  SynthSamplesOptions o = SamplesOptions(varied);
+  o.sample.identity_sigma = 1.f;
+  RunInProcess(RunSynthSamples, o, "synth.samples");
+  // The controls and the head's pose are drawn as without identities.
+  EXPECT_EQ(Bytes(same, "/samples/weights"), Bytes(varied, "/samples/weights"));
+  io::H5File a = io::H5File::OpenRead(same), b = io::H5File::OpenRead(varied);
+  const auto lm_a = a.Read<float>("/samples/landmarks", {});
+  const auto lm_b = b.Read<float>("/samples/landmarks", {});
+  const auto seg_a = a.Read<uint8_t>("/samples/segmentation", {});
+  const auto seg_b = b.Read<uint8_t>("/samples/segmentation", {});
+  // Every sample's head is another one: its landmarks move and its image changes.
+  int moved = 0, changed = 0;
+  for (int i = 0; i < 48; ++i) {
+    float largest = 0.f;
+    for (int k = i * 136; k < (i + 1) * 136; ++k) largest = std::max(largest, std::abs(lm_a[k] - lm_b[k]));
+    moved += largest > 0.5f;
+    changed += !std::equal(seg_a.begin() + i * 3072, seg_a.begin() + (i + 1) * 3072,
+                           seg_b.begin() + i * 3072);
+  }
+  EXPECT_EQ(moved, 48);
+  EXPECT_EQ(changed, 48);
+
+  // The coefficients: N(0, sigma^2) truncated to +-2.5 sigma (standard deviation 0.955 sigma).
+  synth::SampleOptions so;
+  so.identity_sigma = 0.5f;
+  so.sparsity_groups = {"mouth", "eye"};
+  so.sparsity_max_active = {1, 1};
+  rig::Rig rig;
+  rig.shapes.resize(2);
+  rig.shapes[0].name = "mouthClose";
+  rig.shapes[1].name = "eyeBlinkLeft";
+  const synth::Sparsity sparsity = synth::ResolveSparsity(rig, so);
+  double sum2 = 0.;
+  int n = 0;
+  for (int64_t i = 0; i < 2000; ++i) {
+    const synth::SampleParams p = synth::DrawSample(sparsity, so, 2, i, 24);
+    ASSERT_EQ(p.identity.size(), 24);
+    EXPECT_LE(p.identity.cwiseAbs().maxCoeff(), 1.25f);
+    sum2 += p.identity.squaredNorm();
+    n += 24;
+  }
+  EXPECT_NEAR(std::sqrt(sum2 / n), 0.955 * 0.5, 0.01);
+  so.identity_sigma = 0.f;
+  EXPECT_EQ(synth::DrawSample(sparsity, so, 2, 0, 24).identity.size(), 0);
+
+  // A rig without identity modes cannot vary the head.
+  const std::string plain = dir_->File("plain_rig.h5");
+  RigDemoOptions plain_rig;
+  plain_rig.out = plain;
+  plain_rig.num_identity_modes = 0;
+  RunInProcess(RunRigDemo, plain_rig, "rig.demo");
+  o.rig = plain;
+  o.out = dir_->File("no_modes.h5");
+  try {
+    RunInProcess(RunSynthSamples, o, "synth.samples");
+    ADD_FAILURE() << "identity_sigma was accepted for a rig without identity modes";
+  } catch (const FileIOError& e) {
+    EXPECT_NE(std::string(e.what()).find(plain + ": identity_sigma"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(o.out));
+}
+
 TEST_F(SynthSamples, KilledRunContinuesToTheUninterruptedResult) {
   const std::string straight = dir_->File("straight.h5"), killed = dir_->File("killed.h5");
   RunInProcess(RunSynthSamples, SamplesOptions(straight), "synth.samples");
@@ -160,6 +227,9 @@ TEST_F(SynthSamples, BadOptionsAreUsageErrors) {
   SynthSamplesOptions yaw = SamplesOptions(out);
   yaw.sample.yaw_limit_deg = 120.f;
   EXPECT_THROW(RunInProcess(RunSynthSamples, yaw, "synth.samples"), InvalidInputError);
+  SynthSamplesOptions sigma = SamplesOptions(out);
+  sigma.sample.identity_sigma = -1.f;
+  EXPECT_THROW(RunInProcess(RunSynthSamples, sigma, "synth.samples"), InvalidInputError);
   SynthSamplesOptions mismatched = SamplesOptions(out);
   mismatched.sample.sparsity_max_active = {1, 2};
   EXPECT_THROW(RunInProcess(RunSynthSamples, mismatched, "synth.samples"), InvalidInputError);

@@ -29,6 +29,10 @@ bool SampleOptions::Check(std::string* why) const {
     *why = "pitch_sigma_deg and yaw_sigma_deg must be >= 0";
     return false;
   }
+  if (!(identity_sigma >= 0.f && identity_sigma <= 3.f)) {
+    *why = "identity_sigma must be in [0, 3]";
+    return false;
+  }
   if (sparsity_groups.size() != sparsity_max_active.size()) {
     *why = "sparsity_groups has " + std::to_string(sparsity_groups.size()) +
            " entries but sparsity_max_active has " + std::to_string(sparsity_max_active.size());
@@ -76,7 +80,7 @@ Sparsity ResolveSparsity(const rig::Rig& rig, const SampleOptions& options) {
 }
 
 SampleParams DrawSample(const Sparsity& sparsity, const SampleOptions& options, int num_shapes,
-                        int64_t index) {
+                        int64_t index, int num_identity_modes) {
   Rng rng(static_cast<uint64_t>(options.seed), static_cast<uint64_t>(index));
   SampleParams p;
   p.pitch = static_cast<float>(kDegToRad * rng.TruncatedNormal(0.0, options.pitch_sigma_deg,
@@ -95,6 +99,13 @@ SampleParams DrawSample(const Sparsity& sparsity, const SampleOptions& options, 
       const int j = k + static_cast<int>(rng.UniformInt(static_cast<int64_t>(shapes.size()) - k));
       std::swap(shapes[k], shapes[j]);
       p.weights[shapes[k]] = static_cast<float>(rng.Uniform());
+    }
+  }
+  if (options.identity_sigma > 0.f && num_identity_modes > 0) {
+    const double sigma = options.identity_sigma;
+    p.identity.resize(num_identity_modes);
+    for (int k = 0; k < num_identity_modes; ++k) {
+      p.identity[k] = static_cast<float>(rng.TruncatedNormal(0.0, sigma, -2.5 * sigma, 2.5 * sigma));
     }
   }
   return p;

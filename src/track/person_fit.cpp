@@ -6,6 +6,7 @@
 #include <Eigen/Cholesky>
 
 #include "rig/evaluate.h"
+#include "rig/identity_shapes.h"
 #include "track/soft_segmentation.h"
 #include "util/errors.h"
 
@@ -43,19 +44,6 @@ bool PersonFitOptions::Check(std::string* why) const {
   return landmark_tracker.Check(why) && refine_tracker.Check(why);
 }
 
-namespace {
-
-rig::SparseDelta DenseDelta(const rig::Vertices& offsets) {
-  rig::SparseDelta d;
-  for (int v = 0; v < offsets.rows(); ++v) {
-    d.vertex.push_back(v);
-    d.offset.push_back(offsets.row(v).transpose());
-  }
-  return d;
-}
-
-}  // namespace
-
 struct PersonFitter::Impl {
   PersonFitOptions options;
   rig::Rig generic;
@@ -80,13 +68,7 @@ PersonFitter::PersonFitter(const rig::Rig& generic, const PersonFitOptions& opti
   m.generic = generic;
   m.num_shapes = generic.NumShapes();
   m.modes = generic.identity_modes;
-  m.augmented = generic;
-  for (size_t k = 0; k < m.modes.size(); ++k) {
-    rig::Shape s;
-    s.name = "identity_" + std::to_string(k);
-    s.delta = DenseDelta(m.modes[k]);
-    m.augmented.shapes.push_back(std::move(s));
-  }
+  m.augmented = rig::WithIdentityShapes(generic);
   std::vector<int> identity_shapes;
   for (int k = 0; k < static_cast<int>(m.modes.size()); ++k) identity_shapes.push_back(m.num_shapes + k);
   const std::vector<Eigen::Vector3f> colors = RigRegionColors(generic);
