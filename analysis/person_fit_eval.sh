@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The person fit on people no setting was tuned on: for each identity seed, a clip filmed as in
 # jobs/demo.toml, ingested from its mp4, translated by one deepfake trained on the crops of all
-# of them (B) with the demo's samples and paired frames (A), and fitted by `person fit` as the
-# job fits; `eval person` against each person's true neutral, beside the generic head and the
+# of them (B) with the demo's samples and the paired frames of its four other people (A), and
+# fitted by `person fit` as the job fits; `eval person` against each person's true neutral, beside the generic head and the
 # landmarks-only fit, and the fit on the clip's true segmentation of the crops (the ceiling
 # with a perfect deepfake). Prints a markdown table and the means.
 #
@@ -29,8 +29,9 @@ log() { echo "[person_fit_eval] $*" >&2; }
 # Shared: the calibrated generic head, domain A and the paired frames, as the demo makes them.
 log "shared stages (rig, samples, paired frames)"
 (cd "${work}" && mkdir -p shared && cd shared &&
-  run run "${job}" --until synth.crops-paired >shared.log 2>&1)
+  run run "${job}" --until synth.crops-paired14 >shared.log 2>&1)
 shared="${work}/shared/out/demo"
+paired="$(ls "${shared}"/paired[0-9]*.h5 | paste -sd, -)"
 
 # Per person: the clip, its ingest, the truth's segmentation of the crops.
 for s in ${seeds}; do
@@ -56,7 +57,7 @@ with h5py.File(out, "w") as f:
     f["/frames/crop"] = np.concatenate(crops); f["/frames/found"] = np.concatenate(found)
 EOF
 [[ -f "${work}/deepfake.h5" ]] || run deepfake train --a "${shared}/samples.h5" --b "${work}/b_all.h5" \
-  --b-dataset /frames/crop --paired "${shared}/paired.h5" --out "${work}/deepfake.h5" \
+  --b-dataset /frames/crop --paired "${paired}" --out "${work}/deepfake.h5" \
   "${steps_flag[@]}" >"${work}/deepfake.log" 2>&1
 
 printf "| identity | generic head | landmarks only | person fit | person fit / generic | true segmentation |\n"

@@ -421,7 +421,9 @@ std::string TinyDemo() {
   std::string sets;
   for (const char* s :
        {"rig.calibrate.people=1", "rig.calibrate.frames=4", "synth.clip.frames=16",
-        "synth.samples.count=64", "synth.clip-paired.frames=24", "deepfake.train.steps=3",
+        "synth.samples.count=64", "synth.clip-paired11.frames=12",
+        "synth.clip-paired12.frames=12", "synth.clip-paired13.frames=12",
+        "synth.clip-paired14.frames=12", "deepfake.train.steps=3",
         "deepfake.train.batch=4", "deepfake.train.checkpoint_every=0",
         "deepfake.train.preview_every=0", "deepfake.infer.shift_average=0",
         "person.fit.count=4", "person.fit.landmark_rounds=1", "person.fit.refine_rounds=1",
