@@ -1,4 +1,5 @@
-// The only translation unit of the deepfake that includes torch (it takes a while to compile).
+// The deepfake's networks and trainer: with nn/dssim.cpp, the translation units of the deepfake
+// that include torch (they take a while to compile).
 #include "nn/deepfake.h"
 
 #include <torch/torch.h>
@@ -7,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "nn/dssim.h"
 #include "util/errors.h"
 #include "util/hash.h"
 
@@ -138,20 +140,6 @@ torch::nn::Sequential MakeLatentDiscriminator(const DeepfakeNetworkOptions& o) {
   seq->push_back("act1", Leaky(0.2));
   seq->push_back("score", Conv(w, 1, 1, 1, 0));
   return seq;
-}
-
-// (1 - SSIM) / 2 over 7x7 windows, averaged.
-torch::Tensor Dssim(const torch::Tensor& x, const torch::Tensor& y) {
-  const int k = std::min<int64_t>(7, x.size(2));
-  auto pool = [k](const torch::Tensor& t) { return torch::avg_pool2d(t, {k, k}, {1, 1}); };
-  const double c1 = 0.01 * 0.01, c2 = 0.03 * 0.03;
-  const torch::Tensor mx = pool(x), my = pool(y);
-  const torch::Tensor sxx = pool(x * x) - mx * mx;
-  const torch::Tensor syy = pool(y * y) - my * my;
-  const torch::Tensor sxy = pool(x * y) - mx * my;
-  const torch::Tensor ssim =
-      ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2));
-  return (1.0 - ssim.mean()) * 0.5;
 }
 
 // uint8 NHWC -> float NCHW in [0, 1] on `device`.
