@@ -28,8 +28,8 @@ mpi() { mpirun --oversubscribe --allow-run-as-root -n "$1" "${@:2}"; }
 rate() {
   local ranks="$1" threads="$2" out="run_${1}x${2}_${BENCH_TAG:-}.h5"
   shift 2
-  OMP_NUM_THREADS="${threads}" mpi "${ranks}" "${BENCH_BINARY:-${facecap}}" deepfake train --a a.h5 --b b.h5 \
-    --size "${size}" --batch "${batch}" --steps "${steps}" --checkpoint-every 0 \
+  OMP_NUM_THREADS="${threads}" mpi "${ranks}" "${BENCH_BINARY:-${facecap}}" deepfake train \
+    --a a.h5 --b b.h5 --size "${size}" --batch "${batch}" --steps "${steps}" --checkpoint-every 0 \
     --preview-every 0 --progress-seconds 1000 --out "${out}" "$@" 2>&1 \
     | grep -o '[0-9.]* steps/s' | tail -n 1 | cut -d' ' -f1
 }
@@ -42,7 +42,9 @@ median() { sort -g | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] 
 for repeat in $(seq "${REPEATS:-3}"); do
   BENCH_TAG=${repeat} rate 1 1 "$@" >> r1.txt
   BENCH_TAG=${repeat} rate 2 1 "$@" >> r2.txt
-  if [[ -n "${BASELINE:-}" ]]; then BENCH_TAG=b${repeat} BENCH_BINARY="${BASELINE}" rate 2 1 "$@" >> base.txt; fi
+  if [[ -n "${BASELINE:-}" ]]; then
+    BENCH_TAG=b${repeat} BENCH_BINARY="${BASELINE}" rate 2 1 "$@" >> base.txt
+  fi
   BENCH_TAG=${repeat} rate 1 2 "$@" >> r12.txt
 done
 echo "# steps/s per repeat: 1x1 $(paste -sd' ' r1.txt); 2x1 $(paste -sd' ' r2.txt); 1x2 $(paste -sd' ' r12.txt)"
