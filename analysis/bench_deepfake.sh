@@ -15,6 +15,10 @@ require_facecap
 size="${SIZE:-64}"
 batch="${BATCH:-16}"
 steps="${STEPS:-60}"
+if [[ -n "${BASELINE:-}" ]]; then
+  [[ -x "${BASELINE}" ]] || { echo "error: BASELINE ${BASELINE} is not an executable" >&2; exit 1; }
+  BASELINE="$(realpath "${BASELINE}")"  # the runs below change folder
+fi
 tmp_dir="$(mktemp -d)"
 trap 'rm -rf "${tmp_dir}"' EXIT
 cd "${tmp_dir}"
