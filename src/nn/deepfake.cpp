@@ -274,7 +274,7 @@ struct DeepfakeModel::Impl {
   torch::Tensor host;           // host mirror of `flat` (only when the device is not the CPU)
   torch::Tensor mirror;         // palette index of each colour's mirror (SetFlipAverage)
   int shift_average = 0;        // SetShiftAverage
-  torch::Tensor label_bias;     // [1, K, 1, 1] added to the mean log-probabilities (SetLabelBias)
+  int label_scale = 1;          // SetLabelScale
 
   bool on_cpu() const { return device.is_cpu(); }
   float* host_data() { return on_cpu() ? flat.data_ptr<float>() : host.data_ptr<float>(); }
@@ -399,16 +399,16 @@ void DeepfakeModel::SetShiftAverage(int pixels) {
   impl_->shift_average = pixels;
 }
 
-void DeepfakeModel::SetLabelBias(const std::vector<float>& bias) {
-  if (bias.empty()) {
-    impl_->label_bias = torch::Tensor();
-    return;
+void DeepfakeModel::SetLabelScale(int scale) {
+  if (scale < 1 || scale > 4) {
+    throw InvalidInputError("deepfake: the label scale must be 1-4, got " + std::to_string(scale));
   }
-  if (static_cast<int>(bias.size()) != impl_->options.palette_colors) {
-    throw InvalidInputError("deepfake: " + std::to_string(bias.size()) + " label biases for " +
-                            std::to_string(impl_->options.palette_colors) + " palette colours");
-  }
-  impl_->label_bias = torch::tensor(bias, torch::kFloat32).view({1, -1, 1, 1}).to(impl_->device);
+  impl_->label_scale = scale;
+}
+
+int DeepfakeModel::TranslationSize(Decoder decoder) const {
+  const bool labels = decoder == Decoder::kA && impl_->options.palette_colors > 0;
+  return impl_->options.size * (labels ? impl_->label_scale : 1);
 }
 
 uint64_t DeepfakeModel::ParameterHash() {
@@ -427,7 +427,7 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
   const torch::Tensor x = FromBytes(images, count, size, m.device);
   const std::vector<torch::Tensor> encoded = m.encoder->forward(x);
   const torch::Tensor& z = encoded.back();
-  torch::Tensor y;
+  torch::Tensor y, y_out;  // the translation at the network's size, and as returned
   if (decoder == DeepfakeModel::Decoder::kB) {
     y = m.decoder_b->forward(encoded);
   } else if (m.options.palette_colors == 0) {
@@ -452,7 +452,7 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
       } else {
         m.decoder_a->forward(m.encoder->forward(xs), &logits);
       }
-      if (!m.mirror.defined() && m.shift_average == 0 && !m.label_bias.defined()) {
+      if (!m.mirror.defined() && m.shift_average == 0) {
         return logits;  // a single pass
       }
       torch::Tensor sum = torch::log_softmax(moved(logits, -dx, -dy), 1);
@@ -464,7 +464,6 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
       return sum;
     };
     torch::Tensor sum = log_probabilities(0, 0);
-    int passes = m.mirror.defined() ? 2 : 1;
     const int d = m.shift_average;
     if (d > 0) {
       for (int dy = -d; dy <= d; dy += d) {
@@ -472,15 +471,17 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
           if (dx != 0 || dy != 0) sum += log_probabilities(dx, dy);
         }
       }
-      passes *= 9;
     }
-    // The bias is added to the mean log-probability of the passes (to their sum `passes` times).
-    if (m.label_bias.defined()) sum += static_cast<double>(passes) * m.label_bias;
     y = m.decoder_a->Labels(sum);
+    if (m.label_scale > 1) {
+      const int64_t side = static_cast<int64_t>(size) * m.label_scale;
+      y_out = m.decoder_a->Labels(torch::upsample_bilinear2d(sum, {side, side}, false));
+    }
   }
+  if (!y_out.defined()) y_out = y;
   const int64_t latent = m.options.LatentSize();
   if (translated) {
-    const torch::Tensor bytes = ToBytes(y);
+    const torch::Tensor bytes = ToBytes(y_out);
     std::memcpy(translated, bytes.data_ptr<uint8_t>(), static_cast<size_t>(bytes.numel()));
   }
   if (code) {
@@ -488,7 +489,7 @@ void DeepfakeModel::Translate(const uint8_t* images, int count, Decoder decoder,
     std::memcpy(code, c.data_ptr<float>(), sizeof(float) * count * latent);
   }
   if (code_of_translation) {
-    // E(D(E(I))) of the translation as stored (quantized to 8 bits), as a file reader would see it.
+    // E(D(E(I))) of the translation at the network's size, quantized to 8 bits as stored.
     const torch::Tensor yq = y.clamp(0, 1).mul(255.0).round().div(255.0);
     const torch::Tensor c =
         m.encoder->forward(yq).back().reshape({count, latent}).contiguous().to(torch::kCPU);

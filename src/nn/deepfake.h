@@ -233,23 +233,25 @@ class DeepfakeModel {
   // too. The encoder's strided grid then samples every frame at other phases. 0: off (the
   // default); InvalidInputError when negative.
   void SetShiftAverage(int pixels);
-  // A per-colour bias b_k added to D_A's log-probabilities (their mean over the passes of flip
-  // and shift averaging) before each pixel takes its most likely colour; empty: none (the
-  // default). With b_k = -log w_k for the class weights w_k of the palette term's
-  // cross-entropy, the labels are those of the network's estimate of the unweighted posterior:
-  // training with weights w_k makes it estimate p_k w_k (normalised), which moves every border
-  // into the common region beside a rare one. InvalidInputError when the size is not
-  // options().palette_colors.
-  void SetLabelBias(const std::vector<float>& bias);
+  enum class Decoder { kA, kB };
+  // Label upsampling of the palette head at inference: D_A's log-probabilities (after flip and
+  // shift averaging) are upsampled bilinearly by `scale` before each pixel takes
+  // its most likely colour, so the translation has scale x size pixels on a side and its
+  // borders fall between the network's pixels where its probabilities cross. 1: off (the
+  // default); InvalidInputError outside 1-4.
+  void SetLabelScale(int scale);
+  // The side of D_A's translations in pixels: options().size times the label scale with a
+  // palette head, options().size otherwise (and for D_B).
+  int TranslationSize(Decoder decoder) const;
   // FNV-1a hash of the parameter bytes (to compare ranks).
   uint64_t ParameterHash();
 
-  enum class Decoder { kA, kB };
   // For `count` uint8 RGB images [count, size, size, 3] (size == options().size): the
-  // translation D(E(I)) as uint8 [count, size, size, 3], E(I) and E(D(E(I))) as
-  // [count, LatentSize()] (paper 000 Sec. 9 regresses on the latter). Null outputs are skipped.
-  // With a palette head, D_A's translation is the colour of each pixel's most likely region
-  // (averaged over the image and its mirror image after SetFlipAverage).
+  // translation D(E(I)) as uint8 [count, t, t, 3] (t = TranslationSize(decoder)), E(I) and
+  // E(D(E(I))) as [count, LatentSize()] (paper 000 Sec. 9 regresses on the latter; of the
+  // translation at the network's size). Null outputs are skipped. With a palette head, D_A's
+  // translation is the colour of each pixel's most likely region (averaged over the image and
+  // its mirror image after SetFlipAverage).
   void Translate(const uint8_t* images, int count, Decoder decoder, uint8_t* translated,
                  float* code, float* code_of_translation);
 

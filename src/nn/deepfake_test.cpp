@@ -538,45 +538,62 @@ TEST_F(DeepfakeTrainerTest, ShiftAveragedLabelsKeepTheMirrorEquivariance) {
   EXPECT_LE(differing, 2) << "of " << count * kSize * kSize << " pixels";
 }
 
-// The label bias moves each pixel's decision, and only as an argmax over biased
-// log-probabilities can: a bias common to every colour changes nothing, raising one colour's
-// bias keeps every pixel it had and can only add pixels, a large one takes them all; the
-// result is the same with the mirror and shift passes averaged.
-TEST_F(DeepfakeTrainerTest, LabelBiasMovesDecisionsMonotonically) {
+// Label upsampling interpolates D_A's log-probabilities bilinearly: an argmax of a convex
+// combination of vectors that share their argmax keeps it, so every pixel of the network's
+// size whose 3 x 3 neighbourhood has one label gives that label to its 2 x 2 block; the other
+// blocks may split (borders between the network's pixels). The codes are those of the
+// translation at the network's size.
+TEST_F(DeepfakeTrainerTest, LabelScaleKeepsTheLabelsOfUniformNeighbourhoods) {
   DeepfakeNetworkOptions o = TinyNetwork();
   o.palette_colors = 3;
   DeepfakeModel model(o, 11);
   model.SetPalette({0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 0.f, 1.f});
   model.SetFlipAverage({0, 2, 1});
   model.SetShiftAverage(1);
-  EXPECT_THROW(model.SetLabelBias({0.f, 1.f}), InvalidInputError);
-  const int count = 4, pixels = count * kSize * kSize;
-  auto labels = [&](const std::vector<float>& bias) {
-    model.SetLabelBias(bias);
-    std::vector<uint8_t> out(pixels * 3);
-    model.Translate(a_.data(), count, DeepfakeModel::Decoder::kA, out.data(), nullptr, nullptr);
-    std::vector<int> l(pixels);
-    for (int i = 0; i < pixels; ++i) l[i] = out[3 * i] == 255 ? 1 : out[3 * i + 2] == 255 ? 2 : 0;
-    return l;
-  };
-  const std::vector<int> plain = labels({});
-  EXPECT_EQ(labels({0.f, 0.f, 0.f}), plain);
-  EXPECT_EQ(labels({0.7f, 0.7f, 0.7f}), plain);
-  auto count_of = [](const std::vector<int>& l, int k) { return std::count(l.begin(), l.end(), k); };
-  int64_t previous = count_of(plain, 1);
-  std::vector<int> before = plain;
-  for (float b : {0.2f, 0.5f, 1.f, 2.f}) {
-    const std::vector<int> raised = labels({0.f, b, 0.f});
-    for (int i = 0; i < pixels; ++i) {
-      if (before[i] == 1) ASSERT_EQ(raised[i], 1) << "pixel " << i << " at bias " << b;
-      if (raised[i] != 1) ASSERT_EQ(raised[i], plain[i]) << "pixel " << i << " at bias " << b;
+  EXPECT_THROW(model.SetLabelScale(0), InvalidInputError);
+  EXPECT_THROW(model.SetLabelScale(5), InvalidInputError);
+  const int count = 4, big = 2 * kSize;
+  const int64_t latent = o.LatentSize();
+  auto label = [](const uint8_t* p) { return p[0] == 255 ? 1 : p[2] == 255 ? 2 : 0; };
+  std::vector<uint8_t> plain(count * kSize * kSize * 3), scaled(count * big * big * 3);
+  std::vector<float> code(count * latent), code2(count * latent), code_scaled(count * latent),
+      code2_scaled(count * latent);
+  model.Translate(a_.data(), count, DeepfakeModel::Decoder::kA, plain.data(), code.data(), code2.data());
+  model.SetLabelScale(2);
+  EXPECT_EQ(model.TranslationSize(DeepfakeModel::Decoder::kA), big);
+  EXPECT_EQ(model.TranslationSize(DeepfakeModel::Decoder::kB), kSize);
+  model.Translate(a_.data(), count, DeepfakeModel::Decoder::kA, scaled.data(), code_scaled.data(),
+                  code2_scaled.data());
+  EXPECT_EQ(code_scaled, code);
+  EXPECT_EQ(code2_scaled, code2);
+  int uniform = 0, split = 0;
+  for (int i = 0; i < count; ++i) {
+    auto native = [&](int x, int y) {
+      x = std::clamp(x, 0, kSize - 1);
+      y = std::clamp(y, 0, kSize - 1);
+      return label(&plain[((i * kSize + y) * kSize + x) * 3]);
+    };
+    for (int y = 0; y < kSize; ++y) {
+      for (int x = 0; x < kSize; ++x) {
+        bool same = true;
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) same = same && native(x + dx, y + dy) == native(x, y);
+        }
+        for (int sy = 0; sy < 2; ++sy) {
+          for (int sx = 0; sx < 2; ++sx) {
+            const int l = label(&scaled[((i * big + 2 * y + sy) * big + 2 * x + sx) * 3]);
+            if (same) {
+              ASSERT_EQ(l, native(x, y)) << "image " << i << " pixel " << x << ", " << y;
+            }
+            split += l != native(x, y);
+          }
+        }
+        uniform += same;
+      }
     }
-    EXPECT_GE(count_of(raised, 1), previous);
-    previous = count_of(raised, 1);
-    before = raised;
   }
-  EXPECT_GT(previous, count_of(plain, 1));
-  EXPECT_EQ(count_of(labels({0.f, 0.f, 50.f}), 2), pixels);
+  EXPECT_GT(uniform, count * kSize * kSize / 4);
+  EXPECT_GT(split, 0) << "the upsampled labels should move some borders off the pixel grid";
 }
 
 TEST_F(DeepfakeTrainerTest, CheckpointContinuesBitwiseLikeTrainingStraightThrough) {

@@ -385,8 +385,8 @@ class DeepfakeTraining : public train::Network {
     }
     f->SetAttribute("/weights", "hash", train::HexHash(model_.ParameterHash()));
     WriteRegions(f, d_.regions);
-    // The palette terms' class weights (palette order: the background, then the regions),
-    // which infer's prior correction divides back out.
+    // The palette terms' class weights (palette order: the background, then the regions), a
+    // record of how the training weighed the regions.
     if (!region_weights_.empty()) f->WriteVector<float>("/training/region_weights", region_weights_);
   }
   void ReadState(const io::H5File& f) override {
@@ -494,12 +494,11 @@ class DeepfakeTraining : public train::Network {
 // --------------------------------------------------------------------------------------------
 
 // The model as infer uses it: the moving average of the weights, D_A's label averaging and
-// prior correction as the options and the model file allow.
+// upsampling as the options and the model file allow.
 struct Translator {
   std::unique_ptr<nn::DeepfakeModel> model;
   Regions regions;
-  bool averaged = false;   // translating with the model file's moving average of the weights
-  bool corrected = false;  // labels with the prior correction
+  bool averaged = false;  // translating with the model file's moving average of the weights
 };
 
 Translator LoadTranslator(const DeepfakeInferOptions& o, const dist::Comm& comm) {
@@ -517,22 +516,7 @@ Translator LoadTranslator(const DeepfakeInferOptions& o, const dist::Comm& comm)
   if (model->options().palette_colors <= 0 || o.decoder != "A") return t;
   if (o.flip_average) model->SetFlipAverage(PaletteMirror(t.regions));
   model->SetShiftAverage(o.shift_average);
-  const bool has_weights = model_file.Exists("/training/region_weights");
-  if (o.prior_correction != 0 && !has_weights && comm.IsMainRank()) {
-    FC_WARN("deepfake infer: {} has no /training/region_weights (trained without the palette "
-            "terms, or before they were stored); prior_correction is not applied", o.model);
-  }
-  if (o.prior_correction != 0 && has_weights) {
-    const auto weights =
-        model_file.ReadVector<float>("/training/region_weights", model->options().palette_colors);
-    std::vector<float> bias(weights.size(), 0.f);
-    for (size_t k = 0; k < weights.size(); ++k) {
-      // A class absent from the targets (weight 0) keeps its own log-probability.
-      if (weights[k] > 0) bias[k] = static_cast<float>(-o.prior_correction * std::log(weights[k]));
-    }
-    model->SetLabelBias(bias);
-    t.corrected = true;
-  }
+  model->SetLabelScale(o.label_scale);
   return t;
 }
 
@@ -555,6 +539,7 @@ class DeepfakeInference {
       frame_size_ = static_cast<int>(shape[1]);
     });
     size_ = t_.model->options().size;
+    out_size_ = t_.model->TranslationSize(Decoder());
     latent_ = t_.model->options().LatentSize();
   }
 
@@ -586,7 +571,7 @@ class DeepfakeInference {
       FC_INFO("deepfake infer: {} frames -> {}{}{}{}{}", num_frames_, o_.out,
               t_.averaged ? " (averaged weights)" : "", labels && o_.flip_average ? " (flip-averaged labels)" : "",
               labels && o_.shift_average > 0 ? " (shift-averaged labels)" : "",
-              t_.corrected ? fmt::format(" (prior correction {})", o_.prior_correction) : std::string());
+              labels && o_.label_scale > 1 ? fmt::format(" ({} x {} labels)", out_size_, out_size_) : std::string());
     });
     return summary;
   }
@@ -594,7 +579,7 @@ class DeepfakeInference {
  private:
   // The output's datasets (rank 0); `resumed`: a continued file.
   void PrepareOutput(io::H5File* f, bool resumed) {
-    f->CreateFrames<uint8_t>(io::frames::kTranslated, {size_, size_, 3}, num_frames_, 16);
+    f->CreateFrames<uint8_t>(io::frames::kTranslated, {out_size_, out_size_, 3}, num_frames_, 16);
     f->SetAttribute(io::frames::kTranslated, "meaning",
                     std::string(o_.decoder == "A" ? "D_A(E(I)): the frame in the synthetic (segmentation) style"
                                                   : "D_B(E(I))"));
@@ -616,28 +601,31 @@ class DeepfakeInference {
       f->SetAttribute(io::frames::kFound, "meaning", std::string("1: ingest found the face, 0: no face"));
     }
     if (o_.camera.empty()) {
-      CopyScaledCamera(frames_file_, size_, f);
+      CopyScaledCamera(frames_file_, out_size_, f);
     } else {
-      CopyScaledCamera(io::H5File::OpenRead(o_.camera), size_, f);
+      CopyScaledCamera(io::H5File::OpenRead(o_.camera), out_size_, f);
       if (!io::HasCamera(*f)) throw FileIOError(o_.camera + ": no " + io::kCameraPath);
     }
   }
 
-  // Frame `frame` of the input at the network's size.
-  std::vector<uint8_t> InputImage(int64_t frame) {
+  nn::DeepfakeModel::Decoder Decoder() const {
+    return o_.decoder == "A" ? nn::DeepfakeModel::Decoder::kA : nn::DeepfakeModel::Decoder::kB;
+  }
+
+  // Frame `frame` of the input at `size` pixels (the network's by default).
+  std::vector<uint8_t> InputImage(int64_t frame, int size = 0) {
     ImageShard image;
     image.size = frame_size_;
     image.pixels.resize(3LL * frame_size_ * frame_size_);
     frames_file_.ReadFrames<uint8_t>(dataset_, frame, 1, image.pixels.data());
-    return ResizedImages(image, 0, 1, size_);
+    return ResizedImages(image, 0, 1, size > 0 ? size : size_);
   }
 
   std::vector<uint8_t> Translate(int64_t frame) {
     const std::vector<uint8_t> input = InputImage(frame);
-    std::vector<uint8_t> translated(3LL * size_ * size_);
+    std::vector<uint8_t> translated(3LL * out_size_ * out_size_);
     std::vector<float> code(latent_), code_of_translation(latent_);
-    const auto decoder = o_.decoder == "A" ? nn::DeepfakeModel::Decoder::kA : nn::DeepfakeModel::Decoder::kB;
-    t_.model->Translate(input.data(), 1, decoder, translated.data(), code.data(), code_of_translation.data());
+    t_.model->Translate(input.data(), 1, Decoder(), translated.data(), code.data(), code_of_translation.data());
     ByteWriter w;
     w.PutVector(translated);
     w.PutVector(code);
@@ -669,13 +657,13 @@ class DeepfakeInference {
     std::vector<int32_t> table;  // frame, region, neighbor, closed, first point, point count
     std::vector<float> points;
     const int overlay_frames = static_cast<int>(std::min<int64_t>(o_.overlay_count, num_frames_));
-    const int cell = size_ * o_.overlay_scale;
+    const int cell = out_size_ * o_.overlay_scale;
     Image8 overlay(3 * cell, std::max(1, overlay_frames) * cell, 3);
     for (int64_t frame = 0; frame < num_frames_; ++frame) {
-      Image8 translated(size_, size_, 3);
+      Image8 translated(out_size_, out_size_, 3);
       f.ReadFrames<uint8_t>(io::frames::kTranslated, frame, 1, translated.data.data());
       const auto labels = contour::ClassifyPixels(translated, palette);
-      const auto borders = contour::ExtractBorders(labels, size_, size_, palette.num_labels(), border_options);
+      const auto borders = contour::ExtractBorders(labels, out_size_, out_size_, palette.num_labels(), border_options);
       for (const auto& b : borders) {
         table.insert(table.end(), {static_cast<int32_t>(frame), b.region, b.neighbor, b.closed ? 1 : 0,
                                    static_cast<int32_t>(points.size() / 2),
@@ -704,8 +692,8 @@ class DeepfakeInference {
   // (paper 000 Fig. 7).
   void AddOverlayRow(int64_t frame, const Image8& translated, const std::vector<contour::Border>& borders,
                      const contour::Palette& palette, int cell, Image8* overlay) {
-    Image8 real_image(size_, size_, 3);
-    real_image.data = InputImage(frame);
+    Image8 real_image(out_size_, out_size_, 3);
+    real_image.data = InputImage(frame, out_size_);
     const Image8 columns[3] = {contour::DrawBorders(real_image, {}, palette, o_.overlay_scale),
                                contour::DrawBorders(translated, {}, palette, o_.overlay_scale),
                                contour::DrawBorders(real_image, borders, palette, o_.overlay_scale)};
@@ -727,6 +715,7 @@ class DeepfakeInference {
   int64_t num_frames_ = 0;
   int frame_size_ = 0;
   int size_ = 0;        // the network's image size
+  int out_size_ = 0;    // the translations' size
   int64_t latent_ = 0;  // floats of a code E(I)
   FrameOutput out_;
 };

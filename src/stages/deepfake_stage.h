@@ -196,10 +196,11 @@ struct DeepfakeInferOptions {
   // in x, y or both, either way, each moved back (with flip_average, each with its mirror
   // image): nine times the cost per frame. 0: off.
   int shift_average = 3;
-  // With a palette head and decoder A: each pixel's label maximizes log p_k - a log w_k over
-  // the colours k, for the class weights w_k of the palette terms (the model file's
-  // /training/region_weights). 0: the network's own most likely colour.
-  double prior_correction = 0;
+  // With a palette head and decoder A: the translations are this many times the network's
+  // size on a side, D_A's log-probabilities upsampled bilinearly before each pixel takes its
+  // most likely region (borders between the network's pixels: a brow raise of a pixel of the
+  // network's output shows). 1: the network's size.
+  int label_scale = 2;
   // Translate with the model file's moving average of the weights (/averaged_weights, from
   // training with average_decay > 0) when it has one; false: the last step's weights.
   bool averaged = true;
@@ -232,12 +233,10 @@ struct DeepfakeInferOptions {
       "with a palette head and decoder A, also average D_A's region log-probabilities over the "
       "frame moved by this many pixels in x, y or both, either way, each moved back (nine "
       "times the time; 0: off)");
-    v("prior_correction", prior_correction,
-      "with a palette head and decoder A, subtract this multiple of the log of each region's "
-      "class weight in the palette terms (the model file's /training/region_weights) from "
-      "D_A's log-probabilities before each pixel takes its most likely region; training with "
-      "the weights moved borders into the common regions beside rare ones (0: off; a model "
-      "without region weights is translated without it, with a warning)");
+    v("label_scale", label_scale,
+      "with a palette head and decoder A, translations this many times the network's size on a "
+      "side: the region log-probabilities upsampled bilinearly before each pixel takes its most "
+      "likely region (1-4; 1: the network's size; ignored otherwise)");
     v("averaged", averaged,
       "use the model file's moving average of the weights when it has one (train's "
       "average_decay); false: the weights of the last step");
@@ -259,6 +258,7 @@ struct DeepfakeInferOptions {
     if (threads < 0) { *why = "threads must be >= 0"; return false; }
     if (device != "cpu" && device != "cuda") { *why = "device must be cpu or cuda"; return false; }
     if (shift_average < 0) { *why = "shift_average must be >= 0"; return false; }
+    if (label_scale < 1 || label_scale > 4) { *why = "label_scale must be 1-4"; return false; }
     if (contour_min_points < 2) { *why = "contour_min_points must be >= 2"; return false; }
     if (overlay_count < 1 || overlay_scale < 1 || overlay_scale > 16) {
       *why = "overlay_count must be positive and overlay_scale in [1, 16]";

@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include "io/camera_file.h"
 #include "io/hdf5.h"
 #include "nn/deepfake.h"
 #include "nn/deepfake_io.h"
@@ -256,8 +257,8 @@ TEST_F(DeepfakeStage, CheckpointsThatDoNotFitAreRefusedByName) {
 }
 
 // (With a palette head, so that the labels are flip-averaged, and the moving average of the
-// weights, which infer uses unless told not to: both the defaults; shift averaging and the
-// prior correction of the palette term's class weights, which training stores.)
+// weights, which infer uses unless told not to: both the defaults; shift averaging and labels
+// at twice the network's size, with the camera scaled to them.)
 TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
   const std::string model = File("infer_model.h5");
   DeepfakeTrainOptions train = TrainOptions(model, 3);
@@ -267,7 +268,8 @@ TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
   RunInProcess(RunDeepfakeTrain, train, "deepfake.train");
   const std::string one = File("one.h5"), two = File("two.h5");
   const std::string args = "deepfake infer --model " + model + " --frames " + File("b.h5") +
-                           " --batch 5 --overlay-count 3 --shift-average 1 --prior-correction 0.5 --out ";
+                           " --batch 5 --overlay-count 3 --shift-average 1 --label-scale 2 --camera " +
+                           File("samples1.h5") + " --out ";
   {
     io::H5File m = io::H5File::OpenRead(model);
     const std::vector<float> weights = m.ReadVector<float>("/training/region_weights");
@@ -278,21 +280,28 @@ TEST_F(DeepfakeStage, InferenceIsTheSameOnOneAndTwoRanksWithContours) {
   infer_one.batch = 5;
   infer_one.overlay_count = 3;
   infer_one.shift_average = 1;
-  infer_one.prior_correction = 0.5;
+  infer_one.label_scale = 2;
+  infer_one.camera = File("samples1.h5");
   RunInProcess(RunDeepfakeInfer, infer_one, "deepfake.infer");
   auto r2 = RunFacecap(args + two, 2, kEnv);
   ASSERT_EQ(r2.code, 0) << r2.output;
   EXPECT_NE(r2.output.find("flip-averaged labels"), std::string::npos) << r2.output;
   EXPECT_NE(r2.output.find("averaged weights"), std::string::npos) << r2.output;
   EXPECT_NE(r2.output.find("shift-averaged labels"), std::string::npos) << r2.output;
-  EXPECT_NE(r2.output.find("prior correction 0.5"), std::string::npos) << r2.output;
+  EXPECT_NE(r2.output.find("(64 x 64 labels)"), std::string::npos) << r2.output;
   auto last = RunFacecap(args + File("last.h5") + " --no-averaged", 0, kEnv);
   ASSERT_EQ(last.code, 0) << last.output;
   EXPECT_EQ(last.output.find("averaged weights"), std::string::npos) << last.output;
   EXPECT_NE(io::H5File::OpenRead(File("last.h5")).Read<float>("/frames/latent", {}),
             io::H5File::OpenRead(one).Read<float>("/frames/latent", {}));
   io::H5File f1 = io::H5File::OpenRead(one), f2 = io::H5File::OpenRead(two);
-  EXPECT_EQ(f1.DatasetShape("/frames/translated"), (io::Shape{24, 32, 32, 3}));
+  EXPECT_EQ(f1.DatasetShape("/frames/translated"), (io::Shape{24, 64, 64, 3}));
+  const io::CameraRecord from = io::ReadCamera(io::H5File::OpenRead(File("samples1.h5")));
+  const io::CameraRecord to = io::ReadCamera(f1);
+  ASSERT_TRUE(to.width.has_value());
+  EXPECT_EQ(*to.width, 64.0);
+  EXPECT_NEAR(to.cx, 32.0, 1e-9);  // the samples' principal point, at their centre
+  EXPECT_NEAR(to.fx / to.cx, from.fx / from.cx, 1e-9);
   EXPECT_EQ(f1.DatasetShape("/frames/latent"), (io::Shape{24, 8 * 8 * 8}));
   EXPECT_EQ(f1.Read<uint8_t>("/frames/translated", {}), f2.Read<uint8_t>("/frames/translated", {}));
   EXPECT_EQ(f1.Read<float>("/frames/latent_of_translation", {}),
@@ -318,6 +327,7 @@ TEST_F(DeepfakeStage, PairedExamplesTeachTheTranslation) {
     // colour differs from its right one's, which no face shows; mirrored, they read wrong.
     DeepfakeInferOptions infer = InferOptions(model, out);
     infer.flip_average = false;
+    infer.label_scale = 1;  // compared with the segmentation pixel for pixel
     RunInProcess(RunDeepfakeInfer, infer, "deepfake.infer");
     const std::vector<uint8_t> translated = io::H5File::OpenRead(out).Read<uint8_t>("/frames/translated", {});
     const std::vector<uint8_t> truth = io::H5File::OpenRead(File("b.h5")).Read<uint8_t>("/frames/segmentation", {});
