@@ -35,6 +35,10 @@ bool TrackerOptions::Check(std::string* why) const {
     *why = "weight_prior must be in [0, 1e6)";
     return false;
   }
+  if (!(sparsity_prior >= 0.f && sparsity_prior < 1e6f)) {
+    *why = "sparsity_prior must be in [0, 1e6)";
+    return false;
+  }
   if (!(landmark_weight >= 0.f && landmark_weight < 1e6f)) {
     *why = "landmark_weight must be in [0, 1e6)";
     return false;
@@ -356,6 +360,44 @@ class WeightPrior : public ceres::CostFunction {
   int block_size_;
 };
 
+// The sparsity prior mu sum_i w_i for the weight columns of a block, each term smoothed as
+// mu (sqrt(w^2 + e^2) - e), e = kSparsityEpsilon: the residual sqrt(mu (sqrt(w^2 + e^2) - e))
+// (Ceres halves its square, as it halves the pixel residual's), whose derivative tends to
+// sqrt(mu / (2 e)) at w = 0.
+constexpr double kSparsityEpsilon = 0.01;
+class SparsityPrior : public ceres::CostFunction {
+ public:
+  SparsityPrior(std::vector<int> slots, double mu, int block_size)
+      : slots_(std::move(slots)), mu_(mu), block_size_(block_size) {
+    set_num_residuals(static_cast<int>(slots_.size()));
+    mutable_parameter_block_sizes()->push_back(block_size);
+  }
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    constexpr double e = kSparsityEpsilon;
+    if (jacobians && jacobians[0]) {
+      std::fill(jacobians[0], jacobians[0] + slots_.size() * block_size_, 0.);
+    }
+    for (size_t i = 0; i < slots_.size(); ++i) {
+      const double w = parameters[0][slots_[i]];
+      const double root = std::sqrt(w * w + e * e);
+      residuals[i] = std::sqrt(mu_ * (root - e));
+      if (jacobians && jacobians[0]) {
+        // d/dw sqrt(mu h(w)) = mu h'(w) / (2 r), h' = w / root; its limit at w = 0.
+        jacobians[0][i * block_size_ + slots_[i]] =
+            residuals[i] > 1e-12 ? mu_ * (w / root) / (2. * residuals[i])
+                                 : std::copysign(std::sqrt(mu_ / (2. * e)), w);
+      }
+    }
+    return true;
+  }
+
+ private:
+  std::vector<int> slots_;
+  double mu_;
+  int block_size_;
+};
+
 struct BlockOutcome {
   int iterations = 0;
   bool failed = false;
@@ -384,6 +426,11 @@ BlockOutcome SolveBlock(Tracker::Impl* impl, BlockState* state, bool landmarks,
   if (!weight_slots.empty() && options.weight_prior > 0.f) {
     problem.AddResidualBlock(
         new WeightPrior(weight_slots, std::sqrt(options.weight_prior * prior_scale), m), nullptr,
+        block.data());
+  }
+  if (!weight_slots.empty() && options.sparsity_prior > 0.f) {
+    problem.AddResidualBlock(
+        new SparsityPrior(weight_slots, options.sparsity_prior * prior_scale, m), nullptr,
         block.data());
   }
   for (int slot : weight_slots) {
@@ -429,7 +476,8 @@ BlockOutcome SolveBlock(Tracker::Impl* impl, BlockState* state, bool landmarks,
 // far less than the model predicts and the trust region rejects step after step. The set is
 // formed anew for every block solve, so a weight leaves its bound when the gradient turns.
 std::vector<int> FreeColumns(Tracker::Impl* impl, const BlockState& state,
-                             const std::vector<int>& columns, bool landmarks, double prior) {
+                             const std::vector<int>& columns, bool landmarks, double prior,
+                             double sparsity) {
   std::vector<int> weight_columns;
   for (int c : columns) {
     if (c >= rig::kNumPoseParams) weight_columns.push_back(c);
@@ -446,8 +494,9 @@ std::vector<int> FreeColumns(Tracker::Impl* impl, const BlockState& state,
       continue;
     }
     const double w = state.params[c];
-    // Half the gradient of |r|^2 + prior |w|^2.
-    const double g = gradient[k++] + prior * w;
+    // Half the gradient of |r|^2 + prior |w|^2 + sparsity sum w (at w = 0 the L1 term's
+    // one-sided derivative, so that a weight leaves 0 only when the pixels outweigh it).
+    const double g = gradient[k++] + prior * w + 0.5 * sparsity;
     const bool stuck = (w <= 0. && g >= 0.) || (w >= 1. && g <= 0.);
     if (!stuck) free.push_back(c);
   }
@@ -594,8 +643,10 @@ TrackResult Tracker::Solve(const TrackTarget& target, const rig::RigidPose& init
         const std::vector<int>* columns = blocks[b].first;
         const int iterations = blocks[b].second;
         const double prior = options_.weight_prior * prior_scale;
-        state.columns = iterations > 0 ? FreeColumns(&impl, state, *columns, landmarks, prior)
-                                       : std::vector<int>();
+        const double sparsity = options_.sparsity_prior * prior_scale;
+        state.columns = iterations > 0
+                            ? FreeColumns(&impl, state, *columns, landmarks, prior, sparsity)
+                            : std::vector<int>();
         const BlockOutcome o =
             SolveBlock(&impl, &state, landmarks, iterations, options_, prior_scale);
         summary.iterations += o.iterations;

@@ -66,6 +66,12 @@ struct TrackerOptions {
   // Shapes that a segmentation image barely shows (tongue, cheek puff, dimples) are otherwise
   // free to take any value that trades a few border pixels; 0 turns it off.
   float weight_prior = 3.f;
+  // mu of a sparsity prior mu sum_i w_i on the solved weights (the L1 norm, the weights being
+  // >= 0), relative to the same pixel cost as weight_prior. Unlike the L2 prior it pulls every
+  // weight down by the same amount: a weight that the pixels push up by less stays at 0, one
+  // they push further is lowered by a constant, not in proportion to its value. Smoothed within
+  // 0.01 of 0 for Gauss-Newton; 0: off.
+  float sparsity_prior = 0.f;
   // lambda_L of a landmark term lambda_L sum_l |proj(X_l) - l|^2 added to the segmentation
   // cost, over the target's visible landmarks but the jaw contour (points 17-67 of the 68;
   // pixels of the target image; it scales with the pixel count like the prior); 0: off, and
@@ -109,6 +115,9 @@ struct TrackerOptions {
     v("solve_roll", solve_roll, "solve the roll angle of the rigid pose");
     v("solve_scale", solve_scale, "solve the uniform scale of the rigid pose");
     v("weight_prior", weight_prior, "L2 prior lambda |w|^2 towards the neutral (0: off)");
+    v("sparsity_prior", sparsity_prior,
+      "L1 prior mu sum w on the weights: keeps off a weight the pixels push up only a little, "
+      "lowers the others by a constant, not in proportion to their value (0: off)");
     v("landmark_weight", landmark_weight,
       "weight of a 2D landmark term added to the segmentation cost over the 51 points off the "
       "jaw contour, per squared landmark error in units of each point's noise (the noise "

@@ -109,6 +109,59 @@ TEST_F(TrackerTest, RecoversPoseAndWeightsFromNeutralFrontal) {
   EXPECT_NE(result.summary.termination, Termination::kFailure);
 }
 
+// The sparsity prior (L1) against no prior on a clean target of four shapes: the 48 shapes
+// the truth leaves off stay at exactly 0 more often and sum far lower, the jaw and the brow
+// keep within 0.1 of the truth; a very large one keeps every weight at the neutral.
+TEST_F(TrackerTest, SparsityPriorKeepsSmallWeightsOffAndLargeOnesOn) {
+  const rig::RigidPose truth_pose = render::FramedPose(*rig_, distance_, 0.06f, -0.25f);
+  const std::vector<std::pair<const char*, float>> active = {
+      {"jawOpen", 0.45f}, {"eyeBlinkRight", 0.6f}, {"mouthSmileLeft", 0.5f}, {"browInnerUp", 0.5f}};
+  Eigen::VectorXf truth = Eigen::VectorXf::Zero(rig_->NumShapes());
+  for (const auto& [name, value] : active) truth[rig_->ShapeIndex(name)] = value;
+  const TrackTarget target = Target(truth_pose, truth);
+  const rig::RigidPose start = render::FramedPose(*rig_, distance_, 0.f, 0.f);
+  auto solve = [&](float sparsity) {
+    TrackerOptions options;
+    options.weight_prior = 0.f;
+    options.sparsity_prior = sparsity;
+    return Tracker(*rig_, RigRegionColors(*rig_), options)
+        .Solve(target, start, Eigen::VectorXf::Zero(rig_->NumShapes()))
+        .weights;
+  };
+  // The sum of the weights the truth leaves off, and how many of them are exactly 0.
+  auto off = [&](const Eigen::VectorXf& w, int* zeros) {
+    double sum = 0;
+    *zeros = 0;
+    for (int s = 0; s < w.size(); ++s) {
+      if (truth[s] > 0) continue;
+      sum += w[s];
+      *zeros += w[s] == 0.f;
+    }
+    return sum;
+  };
+  const Eigen::VectorXf free = solve(0.f), sparse = solve(2.f), none = solve(1e4f);
+  int zeros_free = 0, zeros_sparse = 0, zeros_none = 0;
+  const double off_free = off(free, &zeros_free), off_sparse = off(sparse, &zeros_sparse);
+  off(none, &zeros_none);
+  std::printf("shapes off: sum %.3f, %d at 0 (no prior); sum %.3f, %d at 0 (sparsity prior 2)\n",
+              off_free, zeros_free, off_sparse, zeros_sparse);
+  for (const auto& [name, value] : active) {
+    const int s = rig_->ShapeIndex(name);
+    std::printf("  %s: %.3f, no prior %.3f (truth %.3f)\n", name, sparse[s], free[s], value);
+    // (The blink, a thin band of this 64-pixel render, is one the prior can keep off.)
+    if (std::string(name) == "jawOpen" || std::string(name) == "browInnerUp") {
+      EXPECT_NEAR(sparse[s], value, 0.1f) << name;
+    }
+  }
+  EXPECT_LT(off_sparse, 0.1 * off_free);
+  EXPECT_GT(zeros_sparse, zeros_free);
+  EXPECT_EQ(zeros_none, rig_->NumShapes() - 4);
+  EXPECT_EQ(none.maxCoeff(), 0.f);
+  TrackerOptions negative;
+  negative.sparsity_prior = -1.f;
+  EXPECT_THROW(Tracker(*rig_, RigRegionColors(*rig_), negative), InvalidInputError);
+}
+
 TEST_F(TrackerTest, LandmarkFitRecoversPose) {
   const rig::RigidPose truth_pose = render::FramedPose(*rig_, distance_, -0.08f, 0.4f);
   const TrackTarget target = Target(truth_pose, Weights({{"jawOpen", 0.3f}}));
