@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
+
+#include <malloc.h>
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -717,8 +720,29 @@ FrameDegradation DegradeFrame(const ImageF& linear, const Eigen::Vector3f& white
   return d;
 }
 
+namespace {
+
+// x264 behind OpenCV's ffmpeg writer reads the uninitialised padding of the writer's frame
+// buffers (when a plane's width is not a multiple of 64, as for 160-pixel frames), so the same
+// frames encode differently after different heap histories. While one of these is alive,
+// glibc fills every new allocation with a fixed byte (M_PERTURB), which makes the encoding a
+// function of the frames alone; the previous setting (MALLOC_PERTURB_) is restored after.
+class FixedAllocationBytes {
+ public:
+  FixedAllocationBytes() { mallopt(M_PERTURB, 0x5a); }
+  ~FixedAllocationBytes() {
+    const char* user = std::getenv("MALLOC_PERTURB_");
+    mallopt(M_PERTURB, user ? std::atoi(user) : 0);
+  }
+  FixedAllocationBytes(const FixedAllocationBytes&) = delete;
+  FixedAllocationBytes& operator=(const FixedAllocationBytes&) = delete;
+};
+
+}  // namespace
+
 std::string WriteVideo(const std::string& path, const std::vector<Image8>& frames, double fps) {
   if (frames.empty()) throw InvalidInputError("video " + path + ": no frames");
+  const FixedAllocationBytes fixed_bytes;
   const int W = frames[0].width, H = frames[0].height;
   const std::filesystem::path final_path(path);
   const std::string temporary = (final_path.parent_path() /
