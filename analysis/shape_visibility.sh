@@ -13,12 +13,8 @@
 # RIG: the rig file (default: DEMO/rig.h5, the demo person's true rig). Environment: DEMO
 # (out/demo, the demo's outputs; the split is skipped when its clip.h5 is absent), WEIGHT (0.5),
 # MIN_PIXELS (5), WORK (out/shape_visibility), FACECAP_BUILD_DIR (build/).
-set -euo pipefail
-
-source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-build_dir="${FACECAP_BUILD_DIR:-${source_dir}/build}"
-facecap="${build_dir}/facecap"
-[[ -x "${facecap}" ]] || { echo "error: ${facecap} not built" >&2; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
+require_facecap
 demo="${DEMO:-out/demo}"
 rig="${1:-${demo}/rig.h5}"
 [[ -f "${rig}" ]] || { echo "error: ${rig}: no such rig file (run jobs/demo.toml, or name a rig)" >&2; exit 2; }
