@@ -43,7 +43,8 @@ for i in 0 1 2; do
   (cd "${d}" && run run "${job}" \
       --set "synth.clip-talk.voice=${voice}" --set "synth.clip-lips.voice=${voice}" \
       --set "synth.clip-talk.speech=${text}" --set "synth.clip-lips.speech=${text}" \
-      --set "lipsync.audio-transcript.transcript=${text}" >run.log 2>&1) ||
+      --set "lipsync.audio-transcript.transcript=${text}" \
+      --set "lipsync.track-transcript.transcript=${text}" >run.log 2>&1) ||
     { echo "error: the lipsync job failed for ${voice}; see ${d}/run.log" >&2; exit 1; }
   log "${voice}: $(( $(date +%s) - start )) s"
 done

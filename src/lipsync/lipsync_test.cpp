@@ -136,10 +136,18 @@ TEST(Silence, FramesFarFromSoundAreSilentAndOthersNot) {
   ASSERT_EQ(silent.size(), times.size());
   for (int f = 0; f < 60; ++f) {
     const double t = times[f];
-    if (t <= 0.36 || (t >= 1.66 && t < 2.0)) EXPECT_TRUE(silent[f]) << t;      // quiet, 0.1 s from the tone
-    if (t >= 0.48 && t <= 1.52) EXPECT_FALSE(silent[f]) << t;                  // the tone
-    if ((t > 0.42 && t < 0.5) || (t > 1.5 && t < 1.58)) EXPECT_FALSE(silent[f]) << t;  // within the margin
-    if (t > 2.0) EXPECT_FALSE(silent[f]) << t;                                 // after the sound
+    if (t <= 0.36 || (t >= 1.66 && t < 2.0)) {      // quiet, 0.1 s from the tone
+      EXPECT_TRUE(silent[f]) << t;
+    }
+    if (t >= 0.48 && t <= 1.52) {                  // the tone
+      EXPECT_FALSE(silent[f]) << t;
+    }
+    if ((t > 0.42 && t < 0.5) || (t > 1.5 && t < 1.58)) {  // within the margin
+      EXPECT_FALSE(silent[f]) << t;
+    }
+    if (t > 2.0) {                                 // after the sound
+      EXPECT_FALSE(silent[f]) << t;
+    }
   }
   // Loud: the frames at 0.52-1.48 s; silent: 0-0.40 s and 1.60-2.00 s, 11 frames each.
   EXPECT_EQ(std::count(silent.begin(), silent.end(), 1), 22);
@@ -177,6 +185,45 @@ TEST(Closures, DemoHeadLipsMeetAtNeutralAndPartWithTheJaw) {
   const std::vector<float> gaps = InnerLipGaps(rig, w);
   EXPECT_LT(std::abs(gaps[0]), 0.02f);
   EXPECT_GT(gaps[1], 0.05f);
+}
+
+TEST(Closures, LipsMayMeetAtBilabialsAndSilencesOnly) {
+  const std::vector<PhoneSegment> phones = {{"SIL", 0.0, 0.2, 0},
+                                            {"M", 0.2, 0.3, static_cast<int>(Viseme::kPP)},
+                                            {"UW", 0.3, 0.5, static_cast<int>(Viseme::kOU)},
+                                            {"F", 0.5, 0.6, static_cast<int>(Viseme::kFF)}};
+  const std::vector<double> times = {0.1, 0.25, 0.3, 0.45, 0.55, 0.7};
+  const std::vector<char> aligned = LipsMayMeet(phones, times, MeetRule::kBilabialsAndSilences);
+  const std::vector<char> expected = {1, 1, 0, 0, 0, 1};  // silence, m, uw (from its start), f, after
+  EXPECT_EQ(aligned, expected);
+  const std::vector<char> free = LipsMayMeet(phones, times, MeetRule::kAllButVowels);
+  const std::vector<char> only_vowels_forbid = {1, 1, 0, 0, 1, 1};
+  EXPECT_EQ(free, only_vowels_forbid);
+}
+
+TEST(Closures, LipsPartOnlyWhereTheSoundForbidsAndJustEnough) {
+  rig::DemoHeadOptions options;
+  options.resolution = 60;
+  const rig::Rig rig = rig::MakeDemoHead(options);
+  const int jaw = rig::ArkitIndex("jawOpen");
+  Eigen::MatrixXf w = Eigen::MatrixXf::Zero(3, rig.NumShapes());
+  w(2, jaw) = 0.5f;  // already open
+  const Eigen::MatrixXf before = w;
+  const std::vector<char> may = {1, 0, 0};
+  const int parted = PartLipsWhereSoundForbids(rig, may, kLipsMeetGap, 0.03f, &w);
+  EXPECT_EQ(parted, 1);
+  EXPECT_EQ(w.row(0), before.row(0));  // a closure the sound allows stays
+  EXPECT_EQ(w.row(2), before.row(2));  // open lips stay
+  const std::vector<float> gaps = InnerLipGaps(rig, w);
+  EXPECT_GE(gaps[1], 0.03f);
+  EXPECT_LT(gaps[1], 0.035f);          // the least jawOpen that opens them
+  for (int s = 0; s < rig.NumShapes(); ++s) {
+    if (s != jaw) {
+      EXPECT_EQ(w(1, s), before(1, s));
+    }
+  }
+  Eigen::MatrixXf wrong = Eigen::MatrixXf::Zero(2, rig.NumShapes());
+  EXPECT_THROW(PartLipsWhereSoundForbids(rig, may, kLipsMeetGap, 0.03f, &wrong), InvalidInputError);
 }
 
 // Bursts of noise with random loudness: the same recording delayed by a known time.

@@ -135,23 +135,87 @@ Eigen::MatrixXf BlendControls(const Eigen::MatrixXf& video, const Eigen::MatrixX
   return out;
 }
 
-std::vector<float> InnerLipGaps(const rig::Rig& rig, const Eigen::MatrixXf& weights) {
+namespace {
+
+// The rig's inner-lip gap at one weight vector, in units of iod; *v is workspace.
+float InnerLipGap(const rig::Rig& rig, const Eigen::VectorXf& w, float iod, rig::Vertices* v) {
+  rig::EvaluateShape(rig, w, v);
+  const int upper[3] = {61, 62, 63}, lower[3] = {67, 66, 65};
+  float gap = 0.f;
+  for (int k = 0; k < 3; ++k) gap += (*v)(rig.landmarks[upper[k]], 1) - (*v)(rig.landmarks[lower[k]], 1);
+  return gap / 3.f / iod;
+}
+
+// The rig's inter-ocular distance (outer eye corners 36, 45 at the neutral).
+float NeutralIod(const rig::Rig& rig, rig::Vertices* v) {
   if (rig.landmarks.size() != 68) {
     throw InvalidInputError("lip gaps need the rig's 68 iBUG landmarks, it has " +
                             std::to_string(rig.landmarks.size()));
   }
+  rig::EvaluateShape(rig, Eigen::VectorXf::Zero(rig.NumShapes()), v);
+  return (v->row(rig.landmarks[36]) - v->row(rig.landmarks[45])).norm();
+}
+
+}  // namespace
+
+std::vector<float> InnerLipGaps(const rig::Rig& rig, const Eigen::MatrixXf& weights) {
   rig::Vertices v;
-  rig::EvaluateShape(rig, Eigen::VectorXf::Zero(rig.NumShapes()), &v);
-  const float iod = (v.row(rig.landmarks[36]) - v.row(rig.landmarks[45])).norm();
-  const int upper[3] = {61, 62, 63}, lower[3] = {67, 66, 65};
+  const float iod = NeutralIod(rig, &v);
   std::vector<float> gaps(weights.rows());
-  for (int f = 0; f < weights.rows(); ++f) {
-    rig::EvaluateShape(rig, weights.row(f).transpose(), &v);
-    float gap = 0.f;
-    for (int k = 0; k < 3; ++k) gap += v(rig.landmarks[upper[k]], 1) - v(rig.landmarks[lower[k]], 1);
-    gaps[f] = gap / 3.f / iod;
-  }
+  for (int f = 0; f < weights.rows(); ++f) gaps[f] = InnerLipGap(rig, weights.row(f).transpose(), iod, &v);
   return gaps;
+}
+
+std::vector<char> LipsMayMeet(const std::vector<PhoneSegment>& phones, const std::vector<double>& times,
+                              MeetRule rule) {
+  const auto may_meet_in = [rule](int viseme) {
+    const auto v = static_cast<Viseme>(viseme);
+    if (rule == MeetRule::kBilabialsAndSilences) return v == Viseme::kSilence || v == Viseme::kPP;
+    return !(v == Viseme::kAA || v == Viseme::kE || v == Viseme::kIH || v == Viseme::kOH || v == Viseme::kOU);
+  };
+  std::vector<char> may(times.size(), 1);
+  for (size_t f = 0; f < times.size(); ++f) {
+    for (const PhoneSegment& p : phones) {
+      if (times[f] < p.start || times[f] >= p.end) continue;
+      may[f] = may_meet_in(p.viseme);
+      break;
+    }
+  }
+  return may;
+}
+
+int PartLipsWhereSoundForbids(const rig::Rig& rig, const std::vector<char>& may_meet, float meet_gap,
+                              float open_gap, Eigen::MatrixXf* weights) {
+  int jaw = -1;
+  for (int s = 0; s < rig.NumShapes(); ++s) {
+    if (rig.shapes[s].name == "jawOpen") jaw = s;
+  }
+  if (jaw < 0) throw InvalidInputError("parting the lips needs the rig's jawOpen, it has none");
+  if (weights->cols() != rig.NumShapes() || static_cast<size_t>(weights->rows()) != may_meet.size()) {
+    throw InvalidInputError("parting the lips: " + std::to_string(weights->rows()) + " x " +
+                            std::to_string(weights->cols()) + " weights for " + std::to_string(may_meet.size()) +
+                            " frames and a rig of " + std::to_string(rig.NumShapes()) + " shapes");
+  }
+  rig::Vertices v;
+  const float iod = NeutralIod(rig, &v);
+  int parted = 0;
+  for (int f = 0; f < weights->rows(); ++f) {
+    if (may_meet[f]) continue;
+    Eigen::VectorXf w = weights->row(f).transpose();
+    if (InnerLipGap(rig, w, iod, &v) > meet_gap) continue;
+    // Bisection on jawOpen in [its value, 1] for the least value whose gap reaches open_gap.
+    float lo = w[jaw], hi = 1.f;
+    w[jaw] = hi;
+    if (InnerLipGap(rig, w, iod, &v) >= open_gap) {
+      while (hi - lo > 1e-3f) {
+        w[jaw] = 0.5f * (lo + hi);
+        (InnerLipGap(rig, w, iod, &v) >= open_gap ? hi : lo) = w[jaw];
+      }
+    }
+    (*weights)(f, jaw) = hi;
+    ++parted;
+  }
+  return parted;
 }
 
 std::vector<Closure> FindClosures(const std::vector<float>& gaps, float threshold, double fps,

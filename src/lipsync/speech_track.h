@@ -74,6 +74,28 @@ std::vector<int> ShapeIndices(const std::vector<std::string>& shape_names,
 // in units of the rig's inter-ocular distance (outer eye corners 36, 45 at the neutral).
 std::vector<float> InnerLipGaps(const rig::Rig& rig, const Eigen::MatrixXf& weights);
 
+// The inner-lip gap (IOD) at or below which the lips meet: a closure.
+inline constexpr float kLipsMeetGap = 0.01f;
+
+// Which phones the lips may meet in: with phones aligned to a transcript, only bilabials (viseme
+// PP: p, b, m) and silences (in any other phone the mouth sounds a vowel or a consonant the
+// lips do not close for); with phones recognized freely, whose consonants are often confused
+// with one another (a heard t may be a p), every phone but a vowel (visemes AA, E, IH, OH, OU).
+enum class MeetRule { kBilabialsAndSilences, kAllButVowels };
+
+// Frames (at `times`, seconds on the phones' clock) where the sound lets the lips meet by
+// `rule`; a frame outside every phone may.
+std::vector<char> LipsMayMeet(const std::vector<PhoneSegment>& phones, const std::vector<double>& times,
+                              MeetRule rule);
+
+// Parts the lips of every frame where they meet (inner-lip gap at most meet_gap, in IOD, the rig
+// at the frame's weights) but may_meet says they may not: jawOpen is raised by the least amount
+// (to within 1e-3) that opens the gap to open_gap, or to 1 when that does not. weights: frames
+// x the rig's shapes. Returns the frames changed. InvalidInputError when the rig has no jawOpen
+// or the sizes differ.
+int PartLipsWhereSoundForbids(const rig::Rig& rig, const std::vector<char>& may_meet, float meet_gap,
+                              float open_gap, Eigen::MatrixXf* weights);
+
 // A lip closure: a run of frames whose lip gap is at most a threshold; its centre in seconds.
 struct Closure {
   int begin = 0, end = 0;  // frames [begin, end)

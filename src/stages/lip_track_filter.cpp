@@ -7,7 +7,9 @@
 
 #include "io/audio.h"
 #include "io/hdf5.h"
+#include "io/rig_io.h"
 #include "lipsync/audio_align.h"
+#include "lipsync/speech_track.h"
 #include "stages/track_file.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -20,6 +22,7 @@ using RowMatrixF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::R
 
 constexpr int kMinRestFrames = 3;
 constexpr int kSoundRate = 16000;
+constexpr float kPartedGap = 0.02f;  // the inner-lip gap (IOD) that parted lips are opened to
 
 // The sound to find the silent frames in: the option, else the frames file's source video.
 std::string SoundPath(const std::string& frames, const LipTrackFilterOptions& o) {
@@ -35,23 +38,29 @@ float Median(std::vector<float>* v) {
   return (*v)[v->size() / 2];
 }
 
-// The per-shape median of the weights over the solved silent frames (empty: no calibration,
-// warned).
-std::vector<float> RestBias(const TrackTimeline& t, const std::string& track, const std::string& frames,
-                            const LipTrackFilterOptions& o, std::string* sound, int* rest_frames) {
-  *sound = SoundPath(frames, o);
-  if (sound->empty()) {
-    FC_WARN("lipsync track: no sound to find the mouth at rest in (give sound); {} is not calibrated", track);
+// The lip video's sound at 16 kHz, its path in *path (no samples: none, warned).
+io::Audio LipSound(const std::string& track, const std::string& frames, const LipTrackFilterOptions& o,
+                   std::string* path) {
+  *path = SoundPath(frames, o);
+  if (path->empty()) {
+    FC_WARN("lipsync track: no sound to find the mouth at rest and the phones in (give sound); {} is "
+            "neither calibrated nor checked against the phones", track);
     return {};
   }
-  io::Audio audio;
   try {
-    audio = io::DecodeAudio(*sound, kSoundRate);
+    return io::DecodeAudio(*path, kSoundRate);
   } catch (const FileIOError& e) {
     if (!o.sound.empty()) throw;  // a sound given and unreadable is an error
-    FC_WARN("lipsync track: {}; {} is not calibrated", e.what(), track);
+    FC_WARN("lipsync track: {}; {} is neither calibrated nor checked against the phones", e.what(), track);
     return {};
   }
+}
+
+// The per-shape median of the weights over the solved silent frames (empty: no calibration,
+// warned).
+std::vector<float> RestBias(const TrackTimeline& t, const std::string& track, const io::Audio& audio,
+                            const std::string& sound, const LipTrackFilterOptions& o, int* rest_frames) {
+  if (audio.samples.empty()) return {};
   const std::vector<char> silent =
       lipsync::SilentFrames(audio.samples, audio.rate, t.times, o.silence_db, o.rest_margin_seconds);
   std::vector<int64_t> rest;
@@ -61,7 +70,7 @@ std::vector<float> RestBias(const TrackTimeline& t, const std::string& track, co
   *rest_frames = static_cast<int>(rest.size());
   if (*rest_frames < kMinRestFrames) {
     FC_WARN("lipsync track: {} solved frames are silent in {} (at least {} needed); {} is not calibrated",
-            rest.size(), *sound, kMinRestFrames, track);
+            rest.size(), sound, kMinRestFrames, track);
     return {};
   }
   std::vector<float> bias(t.names.size());
@@ -71,6 +80,42 @@ std::vector<float> RestBias(const TrackTimeline& t, const std::string& track, co
     bias[s] = Median(&column);
   }
   return bias;
+}
+
+// Parts the lips of the solved frames where the sound's phones forbid a closure (the rig's
+// jawOpen column of *w raised); returns the frames changed.
+int PartLips(const TrackTimeline& t, const std::string& rig_path, const io::Audio& audio,
+             const LipTrackFilterOptions& o, RowMatrixF* w) {
+  const rig::Rig rig = io::ReadRigFile(rig_path);
+  lipsync::RecognizerOptions recognizer;
+  recognizer.model_dir = o.model_dir;
+  recognizer.transcript = o.transcript;
+  const std::vector<lipsync::PhoneSegment> phones = lipsync::RecognizePhones(audio.samples, recognizer);
+  std::vector<char> may = lipsync::LipsMayMeet(
+      phones, t.times,
+      o.transcript.empty() ? lipsync::MeetRule::kAllButVowels : lipsync::MeetRule::kBilabialsAndSilences);
+  for (int64_t f = 0; f < t.frames(); ++f) {
+    if (!t.Solved(f)) may[f] = 1;
+  }
+  std::vector<int> column(rig.NumShapes(), -1);
+  for (int s = 0; s < rig.NumShapes(); ++s) {
+    const auto it = std::find(t.names.begin(), t.names.end(), rig.shapes[s].name);
+    if (it != t.names.end()) column[s] = static_cast<int>(it - t.names.begin());
+  }
+  Eigen::MatrixXf in_rig = Eigen::MatrixXf::Zero(t.frames(), rig.NumShapes());
+  for (int s = 0; s < rig.NumShapes(); ++s) {
+    if (column[s] >= 0) in_rig.col(s) = w->col(column[s]);
+  }
+  const int parted = lipsync::PartLipsWhereSoundForbids(rig, may, lipsync::kLipsMeetGap, kPartedGap, &in_rig);
+  for (int s = 0; s < rig.NumShapes(); ++s) {
+    if (column[s] >= 0) w->col(column[s]) = in_rig.col(s);
+  }
+  int spoken = 0;
+  for (const auto& p : phones) spoken += p.viseme != 0;
+  FC_INFO("lipsync track: {} phones ({} spoken{}); the lips parted in {} frames where they met in {}",
+          phones.size(), spoken, o.transcript.empty() ? ", recognized freely" : ", transcript aligned", parted,
+          o.transcript.empty() ? "a vowel" : "a phone other than a bilabial or a silence");
+  return parted;
 }
 
 // The running median over `window` frames of every column, the ends repeated.
@@ -113,10 +158,11 @@ bool LipTrackFilterOptions::Check(std::string* why) const {
 }
 
 void CheckLipTrackSound(const LipTrackFilterOptions& o) {
-  if (o.rest_calibration && !o.sound.empty()) io::DecodeAudio(o.sound, kSoundRate);
+  if ((o.rest_calibration || o.part_lips) && !o.sound.empty()) io::DecodeAudio(o.sound, kSoundRate);
 }
 
-void FilterLipTrack(const std::string& track, const std::string& frames, const LipTrackFilterOptions& o) {
+void FilterLipTrack(const std::string& track, const std::string& frames, const std::string& rig,
+                    const LipTrackFilterOptions& o) {
   TrackTimeline t = ReadTimeline(track);
   bool had_solved = false;
   {
@@ -128,16 +174,18 @@ void FilterLipTrack(const std::string& track, const std::string& frames, const L
     }
   }
   std::string sound;
+  const io::Audio audio = o.rest_calibration || o.part_lips ? LipSound(track, frames, o, &sound) : io::Audio();
   int rest_frames = 0;
   const std::vector<float> bias =
-      o.rest_calibration ? RestBias(t, track, frames, o, &sound, &rest_frames) : std::vector<float>();
+      o.rest_calibration ? RestBias(t, track, audio, sound, o, &rest_frames) : std::vector<float>();
   RowMatrixF filtered = t.weights;
   for (size_t s = 0; s < bias.size(); ++s) {
     const int c = static_cast<int>(s);
     filtered.col(c) = (t.weights.col(c).array() - bias[s]).cwiseMax(0.f).cwiseMin(1.f).matrix();
   }
   filtered = RunningMedian(filtered, o.median_frames);
-  if (!had_solved && bias.empty() && o.median_frames <= 1) return;  // nothing to change
+  const int parted = o.part_lips && !audio.samples.empty() ? PartLips(t, rig, audio, o, &filtered) : 0;
+  if (!had_solved && bias.empty() && o.median_frames <= 1 && parted == 0) return;  // nothing to change
 
   const std::string partial = io::H5File::PartialPath(track);
   std::error_code ec;
@@ -149,9 +197,11 @@ void FilterLipTrack(const std::string& track, const std::string& frames, const L
       f.WriteMatrix("/track/weights_solved", t.weights);
       f.SetAttribute("/track/weights_solved", "meaning",
                      std::string("the solve's weights; /track/weights are these less the rest bias "
-                                 "(clamped to [0, 1]), then a running median over median_frames"));
+                                 "(clamped to [0, 1]), then a running median over median_frames, then "
+                                 "jawOpen raised where the lips met outside a bilabial or a silence"));
     }
     f.SetAttribute("/track/weights_solved", "median_frames", static_cast<int64_t>(o.median_frames));
+    f.SetAttribute("/track/weights_solved", "lips_parted_frames", static_cast<int64_t>(parted));
     f.WriteFrames<float>("/track/weights", 0, t.frames(), filtered.data());
     if (f.Exists("/track/rest_bias")) f.Remove("/track/rest_bias");
     if (!bias.empty()) {

@@ -5,11 +5,18 @@
 //   [0, 1]), as a capture is zeroed on the actor's neutral;
 // - a running median over a few frames per control: a control that moves for one frame
 //   against both neighbours (the lips parting for a frame inside a closure) is the
-//   translation's flicker; a closure of two frames stays.
+//   translation's flicker; a closure of two frames stays;
+// - the lips part where the sound says they cannot meet: in the sound's phones (pocketsphinx,
+//   aligned to a transcript when one is given, else recognized freely) a frame whose lips meet
+//   (a barely open mouth that the blurred lip video draws closed) gets the least jawOpen that
+//   parts them when it lies in a vowel, or, with a transcript, in any phone but a bilabial
+//   (p, b, m) or a silence (lipsync::MeetRule).
 #ifndef FACECAP_STAGES_LIP_TRACK_FILTER_H_
 #define FACECAP_STAGES_LIP_TRACK_FILTER_H_
 
 #include <string>
+
+#include "lipsync/phone_recognizer.h"
 
 namespace facecap::stages {
 
@@ -19,6 +26,9 @@ struct LipTrackFilterOptions {
   double silence_db = -40.;          // silent: the frame's sound this far below the loudest frame's
   double rest_margin_seconds = 0.1;  // and no louder frame this close
   int median_frames = 3;             // running median window (1: none)
+  bool part_lips = true;             // part the lips where the sound's phones forbid a closure
+  std::string transcript = "";       // the lip video's words, when known
+  std::string model_dir = lipsync::RecognizerOptions().model_dir;
 
   template <class V>
   void Visit(V&& v) {
@@ -35,19 +45,28 @@ struct LipTrackFilterOptions {
       "then a running median of every control over this many frames, odd (1: none): removes a "
       "one-frame flicker and keeps a closure of two frames (the solve's own weights stay in "
       "/track/weights_solved)");
+    v("part_lips", part_lips,
+      "then part the lips where the sound's phones say they cannot meet: a frame whose inner lips "
+      "meet (gap at most 0.01 IOD) in a vowel, or with a transcript in any phone but a bilabial "
+      "(p, b, m) or a silence, gets the least jawOpen that opens them to 0.02 IOD");
+    v("transcript", transcript,
+      "the words the lip video speaks, when known: its phones are aligned to them (empty: phones "
+      "recognized freely)");
+    v("model_dir", model_dir, "pocketsphinx's English model folder (Debian: pocketsphinx-en-us)");
   }
   bool Check(std::string* why) const;
 };
 
-// Filters the track file `track` in place (atomically: a copy beside it, then a rename), from
+// Filters the track file `track` (solved with the rig file `rig`) in place (atomically: a copy beside it, then a rename), from
 // its /track/weights_solved when an earlier filtering wrote one, so that a rerun gives the same
 // file. `frames` is the ingest output the track was solved from (empty: none). Without a sound
 // (none given and the source video has none), or with fewer than 3 silent solved frames, the
 // calibration is skipped with a warning; a sound given that cannot be read is a FileIOError.
 // Runs on the calling rank alone.
-void FilterLipTrack(const std::string& track, const std::string& frames, const LipTrackFilterOptions& o);
+void FilterLipTrack(const std::string& track, const std::string& frames, const std::string& rig,
+                    const LipTrackFilterOptions& o);
 
-// Before the solve: a sound given (o.sound, with the calibration on) must be readable, so that a
+// Before the solve: a sound given (o.sound, with the calibration or the parting on) must be readable, so that a
 // bad one fails the stage before it writes anything. FileIOError naming the file.
 void CheckLipTrackSound(const LipTrackFilterOptions& o);
 

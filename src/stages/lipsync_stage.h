@@ -127,7 +127,7 @@ struct EvalLipsyncOptions {
   std::vector<std::string> tracks;      // tracks of its video to score
   std::vector<std::string> names;       // their row names
   std::vector<std::string> mouth_controls = lipsync::DefaultMouthControls();
-  float closure_gap = 0.01f;            // lips closed at an inner gap at most this (IOD)
+  float closure_gap = lipsync::kLipsMeetGap;            // lips closed at an inner gap at most this (IOD)
   double closure_tolerance_seconds = 0.04;
   bool json = true;
   std::string out = "";

@@ -242,21 +242,30 @@ TEST_F(Lipsync, TrackSolvesTheMouthOfAFrontalViewOnly) {
   const auto names = f.ReadStrings("/track/shape_names");
   // Zeroed on the mouth at rest: the solve's weights less the median of the silent frames'
   // (the speech starts at 0.437 s), clamped, then the median of each three frames (the ends
-  // repeated); a rerun gives the same weights.
+  // repeated), then jawOpen raised where the lips met in a vowel (the counted frames only); a
+  // rerun gives the same weights.
   const RowMatrixF solved = f.ReadMatrix<float>("/track/weights_solved");
+  const int jaw = static_cast<int>(std::find(names.begin(), names.end(), std::string("jawOpen")) - names.begin());
+  const int64_t parted = f.GetIntAttribute("/track/weights_solved", "lips_parted_frames");
   const std::vector<float> bias = f.ReadVector<float>("/track/rest_bias");
   ASSERT_EQ(static_cast<int64_t>(bias.size()), w.cols());
   EXPECT_GE(f.GetIntAttribute("/track/rest_bias", "rest_frames"), 3);
   const auto calibrated = [&](int i, int s) {
     return std::clamp(solved(std::clamp(i, 0, static_cast<int>(w.rows()) - 1), s) - bias[s], 0.f, 1.f);
   };
+  int64_t raised = 0;
   for (int i = 0; i < w.rows(); ++i) {
     for (int s = 0; s < w.cols(); ++s) {
       float v[3] = {calibrated(i - 1, s), calibrated(i, s), calibrated(i + 1, s)};
       std::sort(v, v + 3);
-      EXPECT_EQ(w(i, s), v[1]) << i << " " << s;
+      if (s == jaw && w(i, s) > v[1]) {
+        ++raised;
+      } else {
+        EXPECT_EQ(w(i, s), v[1]) << i << " " << s;
+      }
     }
   }
+  EXPECT_EQ(raised, parted);
   f.Close();
   LipsyncTrackOptions rerun;
   rerun.rig = File("lips.h5");
@@ -268,7 +277,6 @@ TEST_F(Lipsync, TrackSolvesTheMouthOfAFrontalViewOnly) {
   EXPECT_EQ(Weights(out), w) << "a rerun calibrated the calibrated weights again";
   const RowMatrixF truth = Weights(File("lips.h5"), "/frames/weights");
   const std::vector<int> mouth = MouthColumns(File("lips.h5"));
-  const int jaw = static_cast<int>(std::find(names.begin(), names.end(), std::string("jawOpen")) - names.begin());
   Eigen::VectorXd a(24), b(24);
   for (int i = 0; i < 24; ++i) {
     EXPECT_EQ(pose.row(i).norm(), 0.f) << "the head turned at frame " << i;

@@ -430,7 +430,7 @@ StageSummary RunLipsyncTrack(const LipsyncTrackOptions& o, const StageContext& c
   });
   StageSummary summary = TrackRun(o, ctx, resolved).Run();
   dist::CoordinateExceptions(ctx.comm, [&] {
-    if (ctx.comm.IsMainRank()) FilterLipTrack(o.out, o.frames, o.filter);
+    if (ctx.comm.IsMainRank()) FilterLipTrack(o.out, o.frames, o.rig, o.filter);
   });
   return summary;
 }
