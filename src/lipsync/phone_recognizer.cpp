@@ -119,6 +119,33 @@ void CheckModel(const std::string& dir) {
 
 }  // namespace
 
+namespace {
+
+// The transcript's words and their dictionary entries; InvalidInputError for a transcript
+// without words or with a word the dictionary lacks.
+std::map<std::string, std::vector<std::string>> TranscriptPronunciations(const std::string& transcript,
+                                                                         const std::string& dict,
+                                                                         std::vector<std::string>* words) {
+  *words = TranscriptWords(transcript);
+  if (words->empty()) throw InvalidInputError("lipsync: the transcript has no words");
+  std::map<std::string, std::vector<std::string>> pronunciations = DictionaryEntries(dict, *words);
+  for (const std::string& w : *words) {
+    if (!pronunciations.count(w)) {
+      throw InvalidInputError("lipsync: '" + w + "' of the transcript is not in " + dict);
+    }
+  }
+  return pronunciations;
+}
+
+}  // namespace
+
+void CheckRecognizerOptions(const RecognizerOptions& options) {
+  CheckModel(options.model_dir);
+  if (options.transcript.empty()) return;
+  std::vector<std::string> words;
+  TranscriptPronunciations(options.transcript, options.model_dir + "/cmudict-en-us.dict", &words);
+}
+
 std::vector<PhoneSegment> RecognizePhones(const std::vector<float>& samples,
                                           const RecognizerOptions& options) {
   CheckModel(options.model_dir);
@@ -128,14 +155,7 @@ std::vector<PhoneSegment> RecognizePhones(const std::vector<float>& samples,
   std::map<std::string, std::vector<std::string>> pronunciations;
   std::string grammar_path;
   if (!options.transcript.empty()) {
-    words = TranscriptWords(options.transcript);
-    if (words.empty()) throw InvalidInputError("lipsync: the transcript has no words");
-    pronunciations = DictionaryEntries(dict, words);
-    for (const std::string& w : words) {
-      if (!pronunciations.count(w)) {
-        throw InvalidInputError("lipsync: '" + w + "' of the transcript is not in " + dict);
-      }
-    }
+    pronunciations = TranscriptPronunciations(options.transcript, dict, &words);
     // A grammar of exactly the transcript, with optional pauses.
     grammar_path = (std::filesystem::temp_directory_path() /
                     ("facecap_transcript_" + std::to_string(::getpid()) + ".gram")).string();

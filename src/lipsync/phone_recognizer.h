@@ -28,6 +28,10 @@ inline constexpr int kRecognizerRate = 16000;
 std::vector<PhoneSegment> RecognizePhones(const std::vector<float>& samples,
                                           const RecognizerOptions& options);
 
+// What RecognizePhones checks before decoding: the model's files are there (FileIOError), and
+// every word of a transcript is in its dictionary (InvalidInputError).
+void CheckRecognizerOptions(const RecognizerOptions& options);
+
 // The ARPAbet phones (and fillers) of the acoustic model's phone set, read from its model
 // definition; FileIOError when it cannot be read.
 std::vector<std::string> ModelPhones(const std::string& model_dir);

@@ -159,6 +159,12 @@ bool LipTrackFilterOptions::Check(std::string* why) const {
 
 void CheckLipTrackSound(const LipTrackFilterOptions& o) {
   if ((o.rest_calibration || o.part_lips) && !o.sound.empty()) io::DecodeAudio(o.sound, kSoundRate);
+  if (o.part_lips) {
+    lipsync::RecognizerOptions recognizer;
+    recognizer.model_dir = o.model_dir;
+    recognizer.transcript = o.transcript;
+    lipsync::CheckRecognizerOptions(recognizer);
+  }
 }
 
 void FilterLipTrack(const std::string& track, const std::string& frames, const std::string& rig,

@@ -66,8 +66,10 @@ struct LipTrackFilterOptions {
 void FilterLipTrack(const std::string& track, const std::string& frames, const std::string& rig,
                     const LipTrackFilterOptions& o);
 
-// Before the solve: a sound given (o.sound, with the calibration or the parting on) must be readable, so that a
-// bad one fails the stage before it writes anything. FileIOError naming the file.
+// Before the solve, so that bad input fails the stage before it writes anything: a sound given
+// (o.sound, with the calibration or the parting on) must be readable (FileIOError naming the
+// file), and with the parting on the phone recognizer's model must be there (FileIOError) and
+// every word of the transcript in its dictionary (InvalidInputError).
 void CheckLipTrackSound(const LipTrackFilterOptions& o);
 
 }  // namespace facecap::stages

@@ -304,6 +304,16 @@ TEST_F(Lipsync, TrackSolvesTheMouthOfAFrontalViewOnly) {
   } catch (const InvalidInputError& e) {
     EXPECT_NE(std::string(e.what()).find("grin"), std::string::npos) << e.what();
   }
+  LipsyncTrackOptions unknown_word = rerun;
+  unknown_word.filter.transcript = "the zorblax";
+  unknown_word.out = File("word_track.h5");
+  try {
+    RunInProcess(RunLipsyncTrack, unknown_word, "lipsync.track");
+    ADD_FAILURE() << "lipsync track took a transcript word its dictionary lacks";
+  } catch (const InvalidInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("zorblax"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(unknown_word.out)) << "a bad transcript failed after the solve";
 }
 
 }  // namespace
