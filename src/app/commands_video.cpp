@@ -164,8 +164,9 @@ void RegisterTrack(CLI::App* app, AppState* state) {
       "ingested and translated as any footage (its frames and translations), then solved as "
       "track does with the head held frontal (its position solved) and every control outside "
       "the mouth group (solve_controls) at the neutral; then zeroed on the frames where its "
-      "sound is silent (the mouth at rest) and one-frame flicker removed; writes a track file "
-      "for lipsync blend",
+      "sound is silent (the mouth at rest), one-frame flicker removed, and the lips parted "
+      "where they meet in a phone of its sound that forbids it; writes a track file for "
+      "lipsync blend",
       PathKeys{{"rig", "targets", "frames", "sound"}, {{"out", OutputKind::kHdf5}}},
       StageCommand(RunLipsyncTrack));
 }

@@ -36,8 +36,8 @@ struct LipTrackFilterOptions {
       "zero the solve on the mouth at rest: the median of every control over the frames where "
       "the lip video's sound is silent is subtracted from every frame (clamped to [0, 1])");
     v("sound", sound,
-      "the lip video (or any file ffmpeg reads) whose sound tells the silent frames (empty: the "
-      "video that frames was ingested from, its path as ingest recorded it)");
+      "the lip video (or any file ffmpeg reads) whose sound tells the silent frames and the "
+      "phones (empty: the video that frames was ingested from, its path as ingest recorded it)");
     v("silence_db", silence_db, "a frame is silent when its sound is this many dB below the loudest frame's");
     v("rest_margin_seconds", rest_margin_seconds,
       "and when no louder frame is this close (the mouth moves before and after a sound)");

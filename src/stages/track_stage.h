@@ -115,7 +115,7 @@ struct LipsyncTrackOptions : TrackOptions {
 
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
     auto sections = TrackOptions::HelpSections();
-    sections.emplace_back("rest_calibration", "After the solve: the mouth at rest, flicker");
+    sections.emplace_back("rest_calibration", "After the solve: the mouth at rest, flicker, the phones");
     return sections;
   }
   template <class V>
