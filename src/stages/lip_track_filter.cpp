@@ -90,7 +90,14 @@ int PartLips(const TrackTimeline& t, const std::string& rig_path, const io::Audi
   lipsync::RecognizerOptions recognizer;
   recognizer.model_dir = o.model_dir;
   recognizer.transcript = o.transcript;
-  const std::vector<lipsync::PhoneSegment> phones = lipsync::RecognizePhones(audio.samples, recognizer);
+  std::vector<lipsync::PhoneSegment> phones;
+  try {
+    phones = lipsync::RecognizePhones(audio.samples, recognizer);
+  } catch (const InvalidInputError& e) {
+    if (!o.transcript.empty()) throw;  // words given that the sound does not carry
+    FC_WARN("lipsync track: {}; the lips are not checked against the phones", e.what());
+    return 0;
+  }
   std::vector<char> may = lipsync::LipsMayMeet(
       phones, t.times,
       o.transcript.empty() ? lipsync::MeetRule::kAllButVowels : lipsync::MeetRule::kBilabialsAndSilences);

@@ -61,7 +61,9 @@ struct LipTrackFilterOptions {
 // its /track/weights_solved when an earlier filtering wrote one, so that a rerun gives the same
 // file. `frames` is the ingest output the track was solved from (empty: none). Without a sound
 // (none given and the source video has none), or with fewer than 3 silent solved frames, the
-// calibration is skipped with a warning; a sound given that cannot be read is a FileIOError.
+// calibration is skipped with a warning, as is the parting without a sound or when free
+// recognition finds no phone in it; a sound given that cannot be read is a FileIOError, a
+// transcript the sound cannot be aligned to an InvalidInputError.
 // Runs on the calling rank alone.
 void FilterLipTrack(const std::string& track, const std::string& frames, const std::string& rig,
                     const LipTrackFilterOptions& o);
