@@ -51,7 +51,8 @@ struct LipTrackFilterOptions {
       "(p, b, m) or a silence, gets the least jawOpen that opens them to 0.02 IOD");
     v("transcript", transcript,
       "the words the lip video speaks, when known: its phones are aligned to them (empty: phones "
-      "recognized freely)");
+      "recognized freely, which may hear a closing m or b as a vowel and part closed lips; give "
+      "the words where they are known)");
     v("model_dir", model_dir, "pocketsphinx's English model folder (Debian: pocketsphinx-en-us)");
   }
   bool Check(std::string* why) const;
