@@ -144,6 +144,7 @@ std::vector<float> LandmarksOfTranslations(const std::string& path, const std::v
 struct RegressData {
   nn::RegressorSizes sizes;
   int64_t num_samples = 0, num_frames = 0;
+  int64_t num_first_frames = 0;    // the frames of `frames` (the others are more_frames')
   std::vector<float> codes;        // [samples + frames, code]
   std::vector<float> pose, jaw, expression;  // per example (zeros where unknown)
   std::vector<uint8_t> has_truth;  // per example: pose and controls known
@@ -199,38 +200,51 @@ RegressData ReadRegressData(const RegressTrainOptions& o) {
       d.landmarks.push_back(lm[(i * kSampleLandmarks + p) * 2 + 1] / static_cast<float>(image[1]));
     }
   }
-  // The real frames: phase 3's examples, and the fit report's (given without phase 3).
-  std::vector<int64_t> frame_rows;
-  std::optional<IngestedFrames> ingested;
+  // The real frames: phase 3's examples, and the fit report's (given without phase 3); those of
+  // `frames` (the clip the tracker's track solved) first, then more_frames' clips.
+  std::vector<std::pair<std::string, std::string>> clips;  // codes, frames
   if (!o.frame_codes.empty() && !o.frames.empty()) {
-    ingested = IngestedFrames::Read(o.frames);
+    clips.emplace_back(o.frame_codes, o.frames);
+    for (size_t i = 0; i < o.more_frames.size(); ++i) clips.emplace_back(o.more_frame_codes[i], o.more_frames[i]);
+  }
+  std::vector<IngestedFrames> ingested;
+  std::vector<std::vector<int64_t>> clip_rows;  // each clip's frames with a face
+  for (const auto& [codes_path, frames_path] : clips) {
+    ingested.push_back(IngestedFrames::Read(frames_path));
+    const IngestedFrames& in = ingested.back();
     int64_t frame_dim = dim;
-    const std::vector<float> frame_codes = ReadCodeRows(o.frame_codes, ingested->NumFrames(), &frame_dim);
-    const int size = ingested->crop_size();
-    for (int64_t k = 0; k < ingested->NumFrames(); ++k) {
-      if (!ingested->Found(k)) continue;
+    const std::vector<float> frame_codes = ReadCodeRows(codes_path, in.NumFrames(), &frame_dim);
+    const int size = in.crop_size();
+    std::vector<int64_t>& rows = clip_rows.emplace_back();
+    for (int64_t k = 0; k < in.NumFrames(); ++k) {
+      if (!in.Found(k)) continue;
       d.codes.insert(d.codes.end(), frame_codes.begin() + k * dim, frame_codes.begin() + (k + 1) * dim);
-      const auto l = ingested->CropLandmarks(k, size);
+      const auto l = in.CropLandmarks(k, size);
       for (int p = kFirstLandmark; p < kSampleLandmarks; ++p) {
         d.landmarks.push_back(l(p, 0) / size);
         d.landmarks.push_back(l(p, 1) / size);
       }
-      frame_rows.push_back(k);
+      rows.push_back(k);
     }
-    d.num_frames = static_cast<int64_t>(frame_rows.size());
-    if (d.num_frames == 0 && o.finetune_steps > 0) throw FileIOError(o.frames + ": no frame with a face for phase 3");
+    if (rows.empty() && o.finetune_steps > 0) throw FileIOError(frames_path + ": no frame with a face for phase 3");
+    d.num_frames += static_cast<int64_t>(rows.size());
   }
-  if (o.landmark_source == "translations" && ingested && (o.landmark_steps > 0 || o.finetune_steps > 0)) {
+  d.num_first_frames = clip_rows.empty() ? 0 : static_cast<int64_t>(clip_rows[0].size());
+  if (o.landmark_source == "translations" && !clips.empty() && (o.landmark_steps > 0 || o.finetune_steps > 0)) {
     // dlib on every example's translation D_S(E(I)), in the box ingest's detector typically
     // gives in a crop: L learns, and phase 3 matches, landmarks of one detector on one kind of
     // image.
-    const face::FaceBox box = TypicalCropBox(o.frames, *ingested);
+    const face::FaceBox box = TypicalCropBox(o.frames, ingested[0]);
     const int threads = ThreadsPerRank(o.threads);
     std::vector<int64_t> sample_rows(static_cast<size_t>(d.num_samples));
     for (int64_t i = 0; i < d.num_samples; ++i) sample_rows[i] = i;
     std::vector<float> detected = LandmarksOfTranslations(o.sample_codes, sample_rows, box, threads);
-    const std::vector<float> detected_frames = LandmarksOfTranslations(o.frame_codes, frame_rows, box, threads);
-    detected.insert(detected.end(), detected_frames.begin(), detected_frames.end());
+    for (size_t c = 0; c < clips.size(); ++c) {
+      const face::FaceBox clip_box = c == 0 ? box : TypicalCropBox(clips[c].second, ingested[c]);
+      const std::vector<float> detected_frames =
+          LandmarksOfTranslations(clips[c].first, clip_rows[c], clip_box, threads);
+      detected.insert(detected.end(), detected_frames.begin(), detected_frames.end());
+    }
     // How far dlib on the translations lands from the projected (samples) and the ingest
     // (real crops) landmarks: the detector's and the translation's bias that L absorbs.
     const auto mean_distance = [&](int64_t first, int64_t count) {
@@ -275,27 +289,30 @@ RegressData ReadRegressData(const RegressTrainOptions& o) {
   std::optional<TrackedRig> tracked;
   if (!o.track.empty()) {
     tracked.emplace(o.track, rig);
-    if (!tracked->InSourceCamera() || tracked->NumFrames() != ingested->NumFrames()) {
+    if (!tracked->InSourceCamera() || tracked->NumFrames() != ingested[0].NumFrames()) {
       throw FileIOError(o.track + ": a track of the crops of " + o.frames + " (" +
-                        std::to_string(ingested->NumFrames()) + " frames, as track --frames writes) is expected; it has " +
+                        std::to_string(ingested[0].NumFrames()) +
+                        " frames, as track --frames writes) is expected; it has " +
                         std::to_string(tracked->NumFrames()) + " frames" +
                         (tracked->InSourceCamera() ? "" : " in another camera"));
     }
   }
-  for (int64_t k : frame_rows) {
-    const bool known = tracked && tracked->Solved(k);
-    float angles[kPose] = {0.f, 0.f, 0.f};
-    Eigen::VectorXf w = Eigen::VectorXf::Zero(S);
-    if (known) {
-      const rig::RigidPose p = PoseInCrop(tracked->Pose(k), ingested->CropCamera(k, ingested->crop_size()));
-      angles[0] = p.pitch;
-      angles[1] = p.yaw;
-      angles[2] = p.roll;
-      w = tracked->Weights(k);
+  for (size_t c = 0; c < clip_rows.size(); ++c) {
+    for (int64_t k : clip_rows[c]) {
+      const bool known = c == 0 && tracked && tracked->Solved(k);
+      float angles[kPose] = {0.f, 0.f, 0.f};
+      Eigen::VectorXf w = Eigen::VectorXf::Zero(S);
+      if (known) {
+        const rig::RigidPose p = PoseInCrop(tracked->Pose(k), ingested[0].CropCamera(k, ingested[0].crop_size()));
+        angles[0] = p.pitch;
+        angles[1] = p.yaw;
+        angles[2] = p.roll;
+        w = tracked->Weights(k);
+      }
+      add_truth(angles, w.data());
+      d.has_truth.push_back(known ? 1 : 0);
+      d.num_truth_frames += known ? 1 : 0;
     }
-    add_truth(angles, w.data());
-    d.has_truth.push_back(known ? 1 : 0);
-    d.num_truth_frames += known ? 1 : 0;
   }
   d.sizes.code = static_cast<int>(dim);
   d.sizes.pose = kPose;
@@ -329,8 +346,9 @@ class RegressTraining : public train::Network {
     // on the samples, phase 3 on every example.
     const int examples = static_cast<int>(
         ps.phase == nn::Regressor::Phase::kFineTune            ? d_.num_samples + d_.num_frames
-        : ps.phase == nn::Regressor::Phase::kPoseJawExpression && d_.num_truth_frames > 0 ? d_.num_samples + d_.num_frames
-                                                                                      : d_.num_samples);
+        : ps.phase == nn::Regressor::Phase::kPoseJawExpression && d_.num_truth_frames > 0
+            ? d_.num_samples + d_.num_first_frames
+            : d_.num_samples);
     const int per_epoch = (examples + o_.batch - 1) / o_.batch;
     int size = 0;
     std::vector<nn::RegressorExample> mine;

@@ -29,6 +29,8 @@ struct RegressTrainOptions {
   std::string frame_codes = "";                   // deepfake infer of the footage crops
   std::string frames = "";                        // ingest output of the footage
   std::string track = "";                         // the tracker's solutions of the frames
+  std::vector<std::string> more_frame_codes;       // more footage of the person: its codes
+  std::vector<std::string> more_frames;            // and its ingest outputs (phase 3's landmarks)
   std::string rig = "rig.h5";                     // the samples' rig (its jaw controls)
   std::string out = "regressor.h5";               // trained model
   int pose_steps = 3000;        // phase 1: P, J, W on the samples
@@ -39,7 +41,7 @@ struct RegressTrainOptions {
   double progress_seconds = 10; // interval of the progress lines
   int threads = 0;              // tensor threads per rank (0: the cores divided among ranks)
   int seed = 1;                 // batch order seed
-  std::string landmark_source = "translations";  // L's targets
+  std::string landmark_source = "projected";  // L's targets
   nn::RegressorOptions net;
 
   static std::vector<std::pair<std::string, std::string>> HelpSections() {
@@ -64,6 +66,11 @@ struct RegressTrainOptions {
       "the tracker's track of the same footage crops (track --frames): each solved frame's pose "
       "and controls join the synthetic truth in phases 1 and 3, as the paper's offline solver "
       "makes the regressor's ground truth (empty: the samples alone)");
+    v("more_frame_codes", more_frame_codes,
+      "more footage of the same person, the clips the regressor is to track: deepfake infer's "
+      "outputs on their crops (same model), one per file of more_frames; their frames join phase "
+      "3's real examples through their landmarks alone (no tracker's solution)");
+    v("more_frames", more_frames, "ingest outputs of the footage of more_frame_codes, in the same order");
     v("rig", rig, "the samples' rig: its jaw-skinned controls are J's, the others W's");
     v("out", out, "trained model (HDF5): the networks' state, the code normalization, the "
                   "control split");
@@ -80,9 +87,9 @@ struct RegressTrainOptions {
     v("threads", threads, "tensor threads per rank (0: the cores divided among the node's ranks)");
     v("seed", seed, "batch order seed");
     v("landmark_source", landmark_source,
-      "L's targets: translations (dlib's landmarks on every example's translation D_S(E(I)) in "
-      "the codes files, samples and real frames alike, as the paper) or projected (the "
-      "samples' projected landmarks and the landmarks ingest detected on the real crops)");
+      "L's targets: projected (the samples' projected landmarks and the landmarks ingest "
+      "detected on the real crops) or translations (dlib's landmarks on every example's "
+      "translation D_S(E(I)) in the codes files, samples and real frames alike, as the paper)");
     io::VisitGroup("model", net, v);
   }
   bool Check(std::string* why) const {
@@ -96,6 +103,15 @@ struct RegressTrainOptions {
     }
     if (!track.empty() && frames.empty()) {
       *why = "track needs frame_codes and frames (the codes and crops of the frames it solved)";
+      return false;
+    }
+    if (more_frame_codes.size() != more_frames.size()) {
+      *why = "more_frame_codes and more_frames name the same clips: " + std::to_string(more_frame_codes.size()) +
+             " and " + std::to_string(more_frames.size()) + " files";
+      return false;
+    }
+    if (!more_frames.empty() && frames.empty()) {
+      *why = "more_frames adds to frames: give frame_codes and frames first";
       return false;
     }
     if (frame_codes.empty() != frames.empty()) {

@@ -1,11 +1,12 @@
 // regress train and regress infer end to end on a synthetic clip filmed, ingested and cropped
 // like footage, with codes that determine the truth (a fixed linear map of each sample's and
 // frame's pose and controls, so that what the networks can learn is known), and the sample
-// renders and the crops standing for their translations: the three phases keep one weight
-// set on 2 and 3 ranks and a run stopped in phase 3 continues to the straight run's weights;
-// phase 1 fits its noiseless training set; infer writes a track that eval track reads, the
-// same on 1 and 2 ranks, its angles closer to the clip's truth than half the frontal head's
-// error; a tracker's solutions given with track are what the model learns on those frames.
+// renders and the crops standing for their translations: the three phases (dlib's landmarks on
+// the translations as L's targets) keep one weight set on 2 and 3 ranks and a run stopped in
+// phase 3 continues to the straight run's weights; phase 1 fits its noiseless training set;
+// infer writes a track that eval track reads, the same on 1 and 2 ranks, its angles closer to
+// the clip's truth than half the frontal head's error; a tracker's solutions given with track
+// are what the model learns on those frames; more footage (more_frames) joins phase 3 alone.
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -164,7 +165,8 @@ std::vector<float> Regress::map_;
 
 TEST_F(Regress, ThePhasesKeepOneWeightSetOnEveryRankAndResume) {
   const std::string steps =
-      "--pose-steps 30 --landmark-steps 20 --finetune-steps 30 --landmark-weight 0.01 --anchor-weight 10";
+      "--pose-steps 30 --landmark-steps 20 --finetune-steps 30 --landmark-weight 0.01 --anchor-weight 10 "
+      "--landmark-source translations";
   for (int ranks : {2, 3}) {
     auto r = RunFacecap(Train(File("ranks" + std::to_string(ranks) + ".h5"), steps), ranks);
     ASSERT_EQ(r.code, 0) << r.output;
@@ -177,6 +179,7 @@ TEST_F(Regress, ThePhasesKeepOneWeightSetOnEveryRankAndResume) {
   RegressTrainOptions straight_options = TrainOptions(straight, 30, 20, 30);
   straight_options.net.landmark_weight = 0.01f;
   straight_options.net.anchor_weight = 10.f;
+  straight_options.landmark_source = "translations";
   RunInProcess(RunRegressTrain, straight_options, "regress.train");
   auto stop = RunFacecap(Train(stopped, steps), 0, "FACECAP_FAULT_AFTER_STEPS=60");
   EXPECT_EQ(stop.code, kExitInterrupted) << stop.output;
@@ -257,6 +260,45 @@ TEST_F(Regress, TheTrackersSolutionsAreLearnedOnTheirFrames) {
     truth_to_track += std::abs(truth[k] - 0.5) / truth.size();
   }
   EXPECT_LT(to_track, 0.5 * truth_to_track) << to_track << " " << truth_to_track;
+}
+
+TEST_F(Regress, MoreFootageJoinsPhaseThreeAlone) {
+  // A track of the frames for phase 1's real examples.
+  const std::string short_model = File("more_short.h5"), track = File("more_track.h5");
+  RunInProcess(RunRegressTrain, TrainOptions(short_model, 20), "regress.train");
+  RunInProcess(RunRegressInfer, InferOptions(short_model, track), "regress.infer");
+  // The same crops once more as a second clip of the person.
+  const auto options = [&](const std::string& out, int landmark_steps, int finetune_steps, bool more) {
+    RegressTrainOptions o = TrainOptions(out, 30, landmark_steps, finetune_steps);
+    o.track = track;
+    o.net.anchor_weight = 10.f;
+    if (more) {
+      o.more_frame_codes = {File("frame_codes.h5")};
+      o.more_frames = {File("frames.h5")};
+    }
+    return o;
+  };
+  const auto state = [](const std::string& path, const char* name) {
+    const io::H5File f = io::H5File::OpenRead(path);
+    return f.Exists(name) ? f.ReadVector<float>(name) : std::vector<float>{};
+  };
+  // Phase 1 (the samples and the tracked frames) does not see it.
+  RunInProcess(RunRegressTrain, options(File("p1.h5"), 0, 0, false), "regress.train");
+  RunInProcess(RunRegressTrain, options(File("p1_more.h5"), 0, 0, true), "regress.train");
+  EXPECT_EQ(state(File("p1.h5"), "/regressor/state"), state(File("p1_more.h5"), "/regressor/state"));
+  // Phase 3 anchors and fine-tunes on both clips' frames.
+  RunInProcess(RunRegressTrain, options(File("p3.h5"), 20, 30, false), "regress.train");
+  RunInProcess(RunRegressTrain, options(File("p3_more.h5"), 20, 30, true), "regress.train");
+  const auto anchors = state(File("p3.h5"), "/regressor/anchors");
+  ASSERT_FALSE(anchors.empty());
+  EXPECT_EQ(state(File("p3_more.h5"), "/regressor/anchors").size(), 2 * anchors.size());
+  EXPECT_NE(state(File("p3.h5"), "/regressor/state"), state(File("p3_more.h5"), "/regressor/state"));
+  // The two lists name the same clips.
+  RegressTrainOptions mismatched = options(File("bad.h5"), 0, 0, true);
+  mismatched.more_frames.push_back(File("frames.h5"));
+  std::string why;
+  EXPECT_FALSE(mismatched.Check(&why));
+  EXPECT_NE(why.find("more_frame_codes"), std::string::npos) << why;
 }
 
 }  // namespace
