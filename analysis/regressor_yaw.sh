@@ -1,16 +1,17 @@
 #!/usr/bin/env bash
 # The personalized regressor (paper 000 Sec. 9) against the truth, on the demo clip (whose
-# frames the tracker's solutions and phase 3 trained on) and on a held-out clip of the same
-# person that no training saw: per frame the yaw of the truth, of the regressor trained on the
-# random samples alone (the paper's stage 1), of the regressor trained on the contracted and
-# expanded samples and the tracker's solutions, of that regressor after phases 2-3 (the real
-# frames' landmarks as weak supervision), of the landmarks-only fit and of the tracker (paper
-# Fig. 24, as a plot and tables), and each one's pose error, weight MAE, landmark NME and
-# seconds per frame, beside the neutral face.
+# frames the tracker's solutions trained on) and on two held-out clips of the same person that
+# neither the deepfake nor phase 1 saw, the second with extreme yaws: per frame the yaw of the
+# truth, of the regressor trained on the random samples alone (the paper's stage 1), of the
+# same after phases 2-3 (stage 3: the three clips' landmarks as weak supervision), of the
+# regressor trained on the contracted and expanded samples and the tracker's solutions (the
+# one the job delivers), of the landmarks-only fit and of the tracker (paper Fig. 24, as a plot
+# and tables), and each one's pose error, weight MAE, landmark NME and seconds per frame,
+# beside the neutral face; then stage 3 against stage 1 over the frames with |yaw| > 40 deg.
 #
 #   analysis/regressor_yaw.sh [BUILD_DIR]
 #
-# Runs jobs/regress.toml (about 20 minutes on 2 cores; run jobs/demo.toml first) and writes
+# Runs jobs/regress.toml (about 30 minutes on 2 cores; run jobs/demo.toml first) and writes
 # out/regress/yaw.png. Environment: RANKS (2), FACECAP_BUILD_DIR (build/).
 source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
 take_build_dir "$@"
@@ -32,23 +33,22 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-clips = [("the demo clip", "out/demo/clip.h5", "out/demo/frames.h5", [
-            ("landmarks-only fit", "out/regress/track_landmarks.h5", "out/regress/metrics_landmarks.json"),
-            ("regressor, random samples alone (stage 1)", "out/regress/track_samples.h5", "out/regress/metrics_samples.json"),
-            ("regressor, expanded samples + tracker", "out/regress/track.h5", "out/regress/metrics.json"),
-            ("regressor, + phases 2-3", "out/regress/track_stage3.h5", "out/regress/metrics_stage3.json"),
-            ("tracker", "out/demo/track.h5", "out/demo/metrics.json")]),
-         ("the held-out clip", "out/regress/holdout.h5", "out/regress/holdout_frames.h5", [
-            ("landmarks-only fit", "out/regress/holdout_track_landmarks.h5",
-             "out/regress/holdout_metrics_landmarks.json"),
-            ("regressor, random samples alone (stage 1)", "out/regress/holdout_track_samples.h5",
-             "out/regress/holdout_metrics_samples.json"),
-            ("regressor, expanded samples + tracker", "out/regress/holdout_track.h5", "out/regress/holdout_metrics.json"),
-            ("regressor, + phases 2-3", "out/regress/holdout_track_stage3.h5",
-             "out/regress/holdout_metrics_stage3.json"),
-            ("tracker", "out/regress/holdout_track_tracker.h5", "out/regress/holdout_metrics_tracker.json")])]
-colors = ["tab:blue", "tab:green", "tab:orange", "tab:red", "tab:gray"]
-fig, axes = plt.subplots(2, 1, figsize=(10, 7.5))
+def rows_of(prefix):
+    return [("landmarks-only fit", f"out/regress/{prefix}track_landmarks.h5", f"out/regress/{prefix}metrics_landmarks.json"),
+            ("regressor, random samples alone (stage 1)", f"out/regress/{prefix}track_samples.h5",
+             f"out/regress/{prefix}metrics_samples.json"),
+            ("regressor, stage 1 + phases 2-3 (stage 3)", f"out/regress/{prefix}track_stage3.h5",
+             f"out/regress/{prefix}metrics_stage3.json"),
+            ("regressor, expanded samples + tracker", f"out/regress/{prefix}track.h5", f"out/regress/{prefix}metrics.json"),
+            ("tracker", f"out/regress/{prefix}track_tracker.h5" if prefix else "out/demo/track.h5",
+             f"out/regress/{prefix}metrics_tracker.json" if prefix else "out/demo/metrics.json")]
+
+clips = [("the demo clip", "out/demo/clip.h5", "out/demo/frames.h5", rows_of("")),
+         ("the held-out clip", "out/regress/holdout.h5", "out/regress/holdout_frames.h5", rows_of("holdout_")),
+         ("the extreme-yaw held-out clip", "out/regress/extreme.h5", "out/regress/extreme_frames.h5", rows_of("extreme_"))]
+colors = ["tab:blue", "tab:green", "tab:red", "tab:orange", "tab:gray"]
+fig, axes = plt.subplots(3, 1, figsize=(10, 11))
+extreme_errors = {}  # method -> yaw errors over the frames with |yaw| > 40 deg, every clip
 for (title, clip, frames_file, rows), ax in zip(clips, axes):
     truth = np.degrees(h5py.File(clip, "r")["/frames/pose"][:, 1])
     found = h5py.File(frames_file, "r")["/frames/found"][:].astype(bool)
@@ -68,6 +68,7 @@ for (title, clip, frames_file, rows), ax in zip(clips, axes):
         yaw = np.degrees(h5py.File(track, "r")["/track/pose"][:, 1])
         m = json.load(open(metrics))
         err = np.abs(yaw - truth)
+        extreme_errors.setdefault(name, []).extend(err[extreme])
         print(f"| {name} | {err[found].mean():.2f} | {err[extreme].mean():.2f} | "
               f"{m['pose_err_deg_mean']:.2f} | {m['weights_mae']:.4f} | {m['active_weights_mae']:.3f} | "
               f"{100 * m['landmark_nme']:.2f}% | {m['sec_per_frame']:.4f} |")
@@ -77,6 +78,10 @@ for (title, clip, frames_file, rows), ax in zip(clips, axes):
     ax.set_ylabel("yaw (deg)")
     ax.set_title(f"Yaw per frame on {title} (frames without a face left out)")
     ax.legend(fontsize=7)
+first, third = (np.mean(extreme_errors[rows[k][0]]) for k in (1, 2))
+print(f"Over the {len(extreme_errors[rows[1][0]])} frames with |yaw| > 40 deg of the three clips: stage 1 "
+      f"{first:.2f} deg, stage 3 {third:.2f} deg ({100 * (third / first - 1):+.0f}%), landmarks-only fit "
+      f"{np.mean(extreme_errors[rows[0][0]]):.2f} deg")
 fig.tight_layout()
 fig.savefig("out/regress/yaw.png", dpi=120)
 print("plot: out/regress/yaw.png")
