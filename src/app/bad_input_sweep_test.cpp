@@ -68,7 +68,7 @@ const std::map<std::string, StageInputs>& ValidRuns() {
       {"regress.train",
        {{{"samples", "samples.h5"}, {"sample_codes", "codes.h5"}, {"frame_codes", "frame_codes.h5"},
          {"frames", "frames.h5"}, {"more_frame_codes", "frame_codes.h5"}, {"more_frames", "frames.h5"},
-         {"track", "footage_track.h5"}, {"rig", "rig.h5"}},
+         {"more_tracks", "footage_track.h5"}, {"track", "footage_track.h5"}, {"rig", "rig.h5"}},
         "--pose-steps 1 --landmark-steps 1 --finetune-steps 1 --batch 2 --hidden 8 --threads 1", {}}},
       {"regress.infer",
        {{{"model", "regressor.h5"}, {"codes", "frame_codes.h5"}, {"frames", "frames.h5"}, {"rig", "rig.h5"}},

@@ -243,7 +243,7 @@ void RegisterRegress(CLI::App* app, AppState* state) {
       "samples against their truth; optionally the paper's phases 2 and 3: L (landmarks) on the samples' landmarks, "
       "then P, J, W again with L frozen, the footage crops' detected landmarks as weak supervision. Data-parallel "
       "over ranks (gradient allreduce), checkpoints, resume",
-      PathKeys{{"samples", "sample_codes", "frame_codes", "frames", "more_frame_codes", "more_frames", "track", "rig"},
+      PathKeys{{"samples", "sample_codes", "frame_codes", "frames", "more_frame_codes", "more_frames", "more_tracks", "track", "rig"},
                {{"out", OutputKind::kHdf5}}},
       StageCommand(RunRegressTrain));
   AddStage<RegressInferOptions>(

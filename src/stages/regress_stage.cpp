@@ -144,7 +144,7 @@ std::vector<float> LandmarksOfTranslations(const std::string& path, const std::v
 struct RegressData {
   nn::RegressorSizes sizes;
   int64_t num_samples = 0, num_frames = 0;
-  int64_t num_first_frames = 0;    // the frames of `frames` (the others are more_frames')
+  int64_t num_tracked_clip_frames = 0;  // the frames of the clips with a track (they come first)
   std::vector<float> codes;        // [samples + frames, code]
   std::vector<float> pose, jaw, expression;  // per example (zeros where unknown)
   std::vector<uint8_t> has_truth;  // per example: pose and controls known
@@ -229,7 +229,10 @@ RegressData ReadRegressData(const RegressTrainOptions& o) {
     if (rows.empty() && o.finetune_steps > 0) throw FileIOError(frames_path + ": no frame with a face for phase 3");
     d.num_frames += static_cast<int64_t>(rows.size());
   }
-  d.num_first_frames = clip_rows.empty() ? 0 : static_cast<int64_t>(clip_rows[0].size());
+  // Phase 1's real frames: those of `frames`, and of every clip when more_tracks tracks them all.
+  for (size_t c = 0; c < clip_rows.size() && (c == 0 || !o.more_tracks.empty()); ++c) {
+    d.num_tracked_clip_frames += static_cast<int64_t>(clip_rows[c].size());
+  }
   if (o.landmark_source == "translations" && !clips.empty() && (o.landmark_steps > 0 || o.finetune_steps > 0)) {
     // dlib on every example's translation D_S(E(I)), in the box ingest's detector typically
     // gives in a crop: L learns, and phase 3 matches, landmarks of one detector on one kind of
@@ -286,28 +289,30 @@ RegressData ReadRegressData(const RegressTrainOptions& o) {
   for (int64_t i = 0; i < d.num_samples; ++i) add_truth(&pose[i * kPose], &weights[i * S]);
   d.has_truth.assign(static_cast<size_t>(d.num_samples), 1);
   // The real frames: the tracker's solution, its pose seen in the crop's camera, where it solved.
-  std::optional<TrackedRig> tracked;
-  if (!o.track.empty()) {
-    tracked.emplace(o.track, rig);
-    if (!tracked->InSourceCamera() || tracked->NumFrames() != ingested[0].NumFrames()) {
-      throw FileIOError(o.track + ": a track of the crops of " + o.frames + " (" +
-                        std::to_string(ingested[0].NumFrames()) +
+  std::vector<std::optional<TrackedRig>> tracked(clips.size());
+  for (size_t c = 0; c < clips.size(); ++c) {
+    const std::string& path = c == 0 ? o.track : o.more_tracks.empty() ? std::string() : o.more_tracks[c - 1];
+    if (path.empty()) continue;
+    tracked[c].emplace(path, rig);
+    if (!tracked[c]->InSourceCamera() || tracked[c]->NumFrames() != ingested[c].NumFrames()) {
+      throw FileIOError(path + ": a track of the crops of " + clips[c].second + " (" +
+                        std::to_string(ingested[c].NumFrames()) +
                         " frames, as track --frames writes) is expected; it has " +
-                        std::to_string(tracked->NumFrames()) + " frames" +
-                        (tracked->InSourceCamera() ? "" : " in another camera"));
+                        std::to_string(tracked[c]->NumFrames()) + " frames" +
+                        (tracked[c]->InSourceCamera() ? "" : " in another camera"));
     }
   }
   for (size_t c = 0; c < clip_rows.size(); ++c) {
     for (int64_t k : clip_rows[c]) {
-      const bool known = c == 0 && tracked && tracked->Solved(k);
+      const bool known = tracked[c] && tracked[c]->Solved(k);
       float angles[kPose] = {0.f, 0.f, 0.f};
       Eigen::VectorXf w = Eigen::VectorXf::Zero(S);
       if (known) {
-        const rig::RigidPose p = PoseInCrop(tracked->Pose(k), ingested[0].CropCamera(k, ingested[0].crop_size()));
+        const rig::RigidPose p = PoseInCrop(tracked[c]->Pose(k), ingested[c].CropCamera(k, ingested[c].crop_size()));
         angles[0] = p.pitch;
         angles[1] = p.yaw;
         angles[2] = p.roll;
-        w = tracked->Weights(k);
+        w = tracked[c]->Weights(k);
       }
       add_truth(angles, w.data());
       d.has_truth.push_back(known ? 1 : 0);
@@ -342,12 +347,12 @@ class RegressTraining : public train::Network {
   int NumLosses() const override { return nn::Regressor::kNumLosses; }
   void Backward(int64_t step, double* losses) override {
     const PhaseStep ps = PhaseOf(step);
-    // Phase 1 trains on the examples with truth (the samples, then the tracked frames), phase 2
+    // Phase 1 trains on the examples with truth (the samples, then the tracked clips), phase 2
     // on the samples, phase 3 on every example.
     const int examples = static_cast<int>(
         ps.phase == nn::Regressor::Phase::kFineTune            ? d_.num_samples + d_.num_frames
         : ps.phase == nn::Regressor::Phase::kPoseJawExpression && d_.num_truth_frames > 0
-            ? d_.num_samples + d_.num_first_frames
+            ? d_.num_samples + d_.num_tracked_clip_frames
             : d_.num_samples);
     const int per_epoch = (examples + o_.batch - 1) / o_.batch;
     int size = 0;

@@ -31,6 +31,7 @@ struct RegressTrainOptions {
   std::string track = "";                         // the tracker's solutions of the frames
   std::vector<std::string> more_frame_codes;       // more footage of the person: its codes
   std::vector<std::string> more_frames;            // and its ingest outputs (phase 3's landmarks)
+  std::vector<std::string> more_tracks;            // none, or the tracker's solutions of each
   std::string rig = "rig.h5";                     // the samples' rig (its jaw controls)
   std::string out = "regressor.h5";               // trained model
   int pose_steps = 3000;        // phase 1: P, J, W on the samples
@@ -71,6 +72,10 @@ struct RegressTrainOptions {
       "outputs on their crops (same model), one per file of more_frames; their frames join phase "
       "3's real examples through their landmarks alone (no tracker's solution)");
     v("more_frames", more_frames, "ingest outputs of the footage of more_frame_codes, in the same order");
+    v("more_tracks", more_tracks,
+      "none, or the tracker's tracks of every clip of more_frames (same order, track --frames): their "
+      "solved frames join the truth of phases 1 and 3 as track's do, e.g. a clip filmed to cover the "
+      "head turns the first clip lacks");
     v("rig", rig, "the samples' rig: its jaw-skinned controls are J's, the others W's");
     v("out", out, "trained model (HDF5): the networks' state, the code normalization, the "
                   "control split");
@@ -112,6 +117,11 @@ struct RegressTrainOptions {
     }
     if (!more_frames.empty() && frames.empty()) {
       *why = "more_frames adds to frames: give frame_codes and frames first";
+      return false;
+    }
+    if (!more_tracks.empty() && (more_tracks.size() != more_frames.size() || track.empty())) {
+      *why = "more_tracks gives a track for every clip of more_frames (" + std::to_string(more_frames.size()) +
+             " files, it has " + std::to_string(more_tracks.size()) + ") and needs track for the first clip";
       return false;
     }
     if (frame_codes.empty() != frames.empty()) {

@@ -6,7 +6,8 @@
 // phase 3 continues to the straight run's weights; phase 1 fits its noiseless training set;
 // infer writes a track that eval track reads, the same on 1 and 2 ranks, its angles closer to
 // the clip's truth than half the frontal head's error; a tracker's solutions given with track
-// are what the model learns on those frames; more footage (more_frames) joins phase 3 alone.
+// are what the model learns on those frames; more footage (more_frames) joins phase 3 alone,
+// and phase 1 too where more_tracks gives its tracker's solutions.
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -262,13 +263,14 @@ TEST_F(Regress, TheTrackersSolutionsAreLearnedOnTheirFrames) {
   EXPECT_LT(to_track, 0.5 * truth_to_track) << to_track << " " << truth_to_track;
 }
 
-TEST_F(Regress, MoreFootageJoinsPhaseThreeAlone) {
+TEST_F(Regress, MoreFootageJoinsPhaseThreeAloneOrWithItsTrackPhaseOne) {
   // A track of the frames for phase 1's real examples.
   const std::string short_model = File("more_short.h5"), track = File("more_track.h5");
   RunInProcess(RunRegressTrain, TrainOptions(short_model, 20), "regress.train");
   RunInProcess(RunRegressInfer, InferOptions(short_model, track), "regress.infer");
   // The same crops once more as a second clip of the person.
-  const auto options = [&](const std::string& out, int landmark_steps, int finetune_steps, bool more) {
+  const auto options = [&](const std::string& out, int landmark_steps, int finetune_steps, bool more,
+                           bool tracked = false) {
     RegressTrainOptions o = TrainOptions(out, 30, landmark_steps, finetune_steps);
     o.track = track;
     o.net.anchor_weight = 10.f;
@@ -276,6 +278,7 @@ TEST_F(Regress, MoreFootageJoinsPhaseThreeAlone) {
       o.more_frame_codes = {File("frame_codes.h5")};
       o.more_frames = {File("frames.h5")};
     }
+    if (tracked) o.more_tracks = {track};
     return o;
   };
   const auto state = [](const std::string& path, const char* name) {
@@ -293,12 +296,24 @@ TEST_F(Regress, MoreFootageJoinsPhaseThreeAlone) {
   ASSERT_FALSE(anchors.empty());
   EXPECT_EQ(state(File("p3_more.h5"), "/regressor/anchors").size(), 2 * anchors.size());
   EXPECT_NE(state(File("p3.h5"), "/regressor/state"), state(File("p3_more.h5"), "/regressor/state"));
+  // With its tracker's solutions (more_tracks) the clip joins phase 1.
+  RunInProcess(RunRegressTrain, options(File("p1_tracked.h5"), 0, 0, true, true), "regress.train");
+  EXPECT_NE(state(File("p1.h5"), "/regressor/state"), state(File("p1_tracked.h5"), "/regressor/state"));
   // The two lists name the same clips.
   RegressTrainOptions mismatched = options(File("bad.h5"), 0, 0, true);
   mismatched.more_frames.push_back(File("frames.h5"));
   std::string why;
   EXPECT_FALSE(mismatched.Check(&why));
   EXPECT_NE(why.find("more_frame_codes"), std::string::npos) << why;
+  // more_tracks tracks every clip of more_frames, and the first clip too.
+  RegressTrainOptions untracked = options(File("bad.h5"), 0, 0, true, true);
+  untracked.more_tracks.push_back(track);
+  EXPECT_FALSE(untracked.Check(&why));
+  EXPECT_NE(why.find("more_tracks"), std::string::npos) << why;
+  untracked = options(File("bad.h5"), 0, 0, true, true);
+  untracked.track.clear();
+  EXPECT_FALSE(untracked.Check(&why));
+  EXPECT_NE(why.find("more_tracks"), std::string::npos) << why;
 }
 
 }  // namespace
