@@ -4,14 +4,15 @@
 # neither the deepfake nor phase 1 saw, the second with extreme yaws: per frame the yaw of the
 # truth, of the regressor trained on the random samples alone (the paper's stage 1), of the
 # same after phases 2-3 (stage 3: the three clips' landmarks as weak supervision), of the
-# regressor trained on the contracted and expanded samples and the tracker's solutions (the
-# one the job delivers), of the landmarks-only fit and of the tracker (paper Fig. 24, as a plot
-# and tables), and each one's pose error, weight MAE, landmark NME and seconds per frame,
-# beside the neutral face; then stage 3 against stage 1 over the frames with |yaw| > 40 deg.
+# regressor trained on the contracted and expanded samples and the tracker's solutions of the
+# demo clip and two more (the one the job delivers), of the landmarks-only fit and of the
+# tracker (paper Fig. 24, as a plot and tables), and each one's pose error, weight MAE,
+# landmark NME and seconds per frame, beside the neutral face; then stage 3 against stage 1
+# over the frames with |yaw| > 40 deg.
 #
 #   analysis/regressor_yaw.sh [BUILD_DIR]
 #
-# Runs jobs/regress.toml (about 30 minutes on 2 cores; run jobs/demo.toml first) and writes
+# Runs jobs/regress.toml (about 33 minutes on 2 cores; run jobs/demo.toml first) and writes
 # out/regress/yaw.png. Environment: RANKS (2), FACECAP_BUILD_DIR (build/).
 source "$(dirname "${BASH_SOURCE[0]}")/preamble.sh"
 take_build_dir "$@"
