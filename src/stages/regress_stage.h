@@ -30,7 +30,7 @@ struct RegressTrainOptions {
   std::string frames = "";                        // ingest output of the footage
   std::string track = "";                         // the tracker's solutions of the frames
   std::vector<std::string> more_frame_codes;       // more footage of the person: its codes
-  std::vector<std::string> more_frames;            // and its ingest outputs (phase 3's landmarks)
+  std::vector<std::string> more_frames;            // and its ingest outputs (their landmarks)
   std::vector<std::string> more_tracks;            // none, or the tracker's solutions of each
   std::string rig = "rig.h5";                     // the samples' rig (its jaw controls)
   std::string out = "regressor.h5";               // trained model
@@ -70,7 +70,7 @@ struct RegressTrainOptions {
     v("more_frame_codes", more_frame_codes,
       "more footage of the same person, the clips the regressor is to track: deepfake infer's "
       "outputs on their crops (same model), one per file of more_frames; their frames join phase "
-      "3's real examples through their landmarks alone (no tracker's solution)");
+      "3's real examples through their landmarks alone (and phase 1 with more_tracks)");
     v("more_frames", more_frames, "ingest outputs of the footage of more_frame_codes, in the same order");
     v("more_tracks", more_tracks,
       "none, or the tracker's tracks of every clip of more_frames (same order, track --frames): their "
